@@ -1,0 +1,276 @@
+"""The arm model: validated, immutable Lagrange-Euler parameters of one Baxter arm.
+
+An :class:`ArmModel` holds the constants (DH table, pseudo-inertias, gravity); the algorithms of
+:mod:`baxter_dynamics_ros.lagrange_euler` do the work. Models are read from the YAML files in
+``config/`` (``baxter_right_arm.yaml``, ``baxter_left_arm.yaml``) or any file of that layout.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from . import lagrange_euler
+from .errors import ModelFileError
+
+__all__ = ["ArmModel", "LinkInertial", "config_dir", "load_arm_model", "pseudo_inertia"]
+
+N_JOINTS = 7
+PACKAGE = "baxter_dynamics_ros"
+
+
+@dataclass(frozen=True)
+class LinkInertial:
+    """Inertial parameters of one link, in its DH frame.
+
+    mass_kg: kg; com_m: (3,) centre of mass in m; inertia_kgm2: (3, 3) tensor about the centre of
+    mass in kg·m² (off-diagonals are tensor elements, minus the products ∫xy dm).
+    """
+
+    name: str
+    mass_kg: float
+    com_m: np.ndarray
+    inertia_kgm2: np.ndarray
+
+
+def pseudo_inertia(link: LinkInertial) -> np.ndarray:
+    """Pseudo-inertia J_i = ∫ r̄ r̄ᵀ dm of paper eq. (12), (4, 4), in the link's DH frame.
+
+    Upper-left block: the second moments about the frame origin,
+    Σ = ½ tr(I_c) 𝟙 − I_c + m c cᵀ; last column and row: m c and m.
+    """
+    m, c, inertia = link.mass_kg, link.com_m, link.inertia_kgm2
+    j = np.empty((4, 4))
+    j[:3, :3] = 0.5 * np.trace(inertia) * np.eye(3) - inertia + m * np.outer(c, c)
+    j[:3, 3] = j[3, :3] = m * c
+    j[3, 3] = m
+    return j
+
+
+def _rpy_matrix(rpy: np.ndarray) -> np.ndarray:
+    """Rotation matrix of URDF roll-pitch-yaw angles (rad): Rz(yaw) · Ry(pitch) · Rx(roll)."""
+    cr, cp, cy = np.cos(rpy)
+    sr, sp, sy = np.sin(rpy)
+    return np.array(
+        [
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    )
+
+
+@dataclass(frozen=True)
+class ArmModel:
+    """Lagrange-Euler model of one 7-DoF Baxter arm (paper Tables II–IV).
+
+    Arrays are read-only. ``dh`` is (7, 4): d [m], a [m], α [rad], θ offset [rad] per joint;
+    ``pseudo_inertias`` is (7, 4, 4), J_i of eq. (12) in DH frame i; ``gravity_m_s2`` (3,) is
+    gravity in the arm base frame (DH frame 0); ``base_in_torso`` (4, 4) places that frame on the
+    robot. Joint limits are (7,) arrays in rad, rad/s and N·m.
+    """
+
+    side: str
+    joint_names: tuple[str, ...]
+    dh: np.ndarray
+    links: tuple[LinkInertial, ...]
+    gravity_m_s2: np.ndarray
+    base_in_torso: np.ndarray
+    lower_rad: np.ndarray
+    upper_rad: np.ndarray
+    velocity_limit_rad_s: np.ndarray
+    effort_limit_nm: np.ndarray
+    source: str = ""
+    pseudo_inertias: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "pseudo_inertias", np.stack([pseudo_inertia(l) for l in self.links]))
+        for value in vars(self).values():
+            if isinstance(value, np.ndarray):
+                value.flags.writeable = False
+
+    @property
+    def masses_kg(self) -> np.ndarray:
+        """(7,) link masses in kg."""
+        return np.array([link.mass_kg for link in self.links])
+
+    # The algorithms live in lagrange_euler; these methods bind them to this model's constants.
+    def gravity(self, q: np.ndarray) -> np.ndarray:
+        """G(q) of eq. (8), N·m; q (..., 7) rad."""
+        return lagrange_euler.gravity(self.dh, self.pseudo_inertias, self.gravity_m_s2, q)
+
+    def mass_matrix(self, q: np.ndarray) -> np.ndarray:
+        """M(q) of eq. (6), (..., 7, 7) kg·m²; q (..., 7) rad."""
+        return lagrange_euler.mass_matrix(self.dh, self.pseudo_inertias, q)
+
+    def coriolis(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        """The vector C(q, q̇) of eqs. (1) and (7), N·m; q, qd (..., 7) rad, rad/s."""
+        return lagrange_euler.coriolis(self.dh, self.pseudo_inertias, q, qd)
+
+    def inverse_dynamics(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+        """τ = M(q) q̈ + C(q, q̇) + G(q) of eq. (1), N·m; inputs (..., 7) rad, rad/s, rad/s²."""
+        return lagrange_euler.inverse_dynamics(self.dh, self.pseudo_inertias, self.gravity_m_s2, q, qd, qdd)
+
+    def forward_dynamics(self, q: np.ndarray, qd: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        """q̈ = M⁻¹(τ − C − G), rad/s²; inputs (..., 7) rad, rad/s, N·m."""
+        return lagrange_euler.forward_dynamics(self.dh, self.pseudo_inertias, self.gravity_m_s2, q, qd, tau)
+
+    def forward_kinematics(self, q: np.ndarray) -> np.ndarray:
+        """(..., 4, 4) pose of the hand flange (DH frame 7) in the arm base frame; q (..., 7) rad."""
+        return lagrange_euler.forward_kinematics(self.dh, q)
+
+    def jacobian(self, q: np.ndarray) -> np.ndarray:
+        """(..., 6, 7) geometric Jacobian of the flange in the base frame, rows (v [m/s], ω [rad/s])."""
+        return lagrange_euler.jacobian(self.dh, q)
+
+
+def config_dir() -> Path:
+    """The folder holding the package's YAML files.
+
+    Looked up in the source tree (checkout or editable install), then under the install prefix
+    (``pip install .``: ``<prefix>/share/baxter_dynamics_ros/config``), then in every
+    ``AMENT_PREFIX_PATH`` entry (colcon workspace).
+    """
+    candidates = [Path(__file__).resolve().parent.parent / "config"]
+    prefixes = [sys.prefix, *os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep)]
+    candidates += [Path(p) / "share" / PACKAGE / "config" for p in prefixes if p]
+    for candidate in candidates:
+        if (candidate / "baxter_right_arm.yaml").is_file():
+            return candidate
+    raise ModelFileError(
+        "cannot find the package's config/ folder (looked in: "
+        + ", ".join(str(c) for c in candidates)
+        + "); reinstall the package or pass a model file path"
+    )
+
+
+def load_arm_model(arm: str | os.PathLike[str] = "right") -> ArmModel:
+    """Load and validate an arm model: ``"right"``, ``"left"`` or the path of a model YAML file."""
+    if str(arm) in ("right", "left"):
+        path = config_dir() / f"baxter_{arm}_arm.yaml"
+    else:
+        path = Path(arm)
+    try:
+        raw = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except OSError as err:
+        raise ModelFileError(f"{path}: cannot read the model file ({err.strerror})") from err
+    except yaml.YAMLError as err:
+        raise ModelFileError(f"{path}: not valid YAML ({err})") from err
+    return _parse(raw, str(path))
+
+
+class _Fields:
+    """Reads fields of a parsed YAML mapping, failing with the field's dotted path."""
+
+    def __init__(self, source: str) -> None:
+        self.source = source
+
+    def fail(self, where: str, what: str) -> ModelFileError:
+        return ModelFileError(f"{self.source}: {where}: {what}")
+
+    def get(self, mapping: Any, key: str, where: str) -> Any:
+        if not isinstance(mapping, dict):
+            raise self.fail(where, "expected a mapping")
+        if key not in mapping:
+            raise self.fail(f"{where}.{key}" if where else key, "missing")
+        return mapping[key]
+
+    def array(self, mapping: Any, key: str, where: str, shape: tuple[int, ...]) -> np.ndarray:
+        path = f"{where}.{key}" if where else key
+        value = self.get(mapping, key, where)
+        try:
+            arr = np.asarray(value, dtype=float)
+        except (TypeError, ValueError) as err:
+            raise self.fail(path, f"expected numbers, got {value!r}") from err
+        if arr.shape != shape:
+            raise self.fail(path, f"expected shape {shape}, got {arr.shape}")
+        if not np.all(np.isfinite(arr)):
+            raise self.fail(path, f"non-finite value in {arr.tolist()}")
+        return arr
+
+
+def _parse(raw: Any, source: str) -> ArmModel:
+    f = _Fields(source)
+    if not isinstance(raw, dict):
+        raise f.fail("top level", "expected a mapping of model fields")
+    side = f.get(raw, "arm", "")
+    if side not in ("right", "left"):
+        raise f.fail("arm", f"expected 'right' or 'left', got {side!r}")
+    names = f.get(raw, "joint_names", "")
+    if (
+        not isinstance(names, list)
+        or len(names) != N_JOINTS
+        or not all(isinstance(n, str) and n for n in names)
+        or len(set(names)) != N_JOINTS
+    ):
+        raise f.fail("joint_names", f"expected {N_JOINTS} distinct names, got {names!r}")
+    dh_raw = f.get(raw, "dh", "")
+    dh = np.stack(
+        [f.array(dh_raw, k, "dh", (N_JOINTS,)) for k in ("d_m", "a_m", "alpha_rad", "theta_offset_rad")],
+        axis=1,
+    )
+    links_raw = f.get(raw, "links", "")
+    if not isinstance(links_raw, list) or len(links_raw) != N_JOINTS:
+        raise f.fail("links", f"expected a list of {N_JOINTS} links")
+    links = tuple(_parse_link(f, entry, f"links[{i}]") for i, entry in enumerate(links_raw))
+    lim = f.get(raw, "joint_limits", "")
+    lower = f.array(lim, "lower_rad", "joint_limits", (N_JOINTS,))
+    upper = f.array(lim, "upper_rad", "joint_limits", (N_JOINTS,))
+    if np.any(lower >= upper):
+        raise f.fail("joint_limits", "every lower_rad must be below its upper_rad")
+    velocity = f.array(lim, "velocity_rad_s", "joint_limits", (N_JOINTS,))
+    effort = f.array(lim, "effort_nm", "joint_limits", (N_JOINTS,))
+    for key, arr in (("velocity_rad_s", velocity), ("effort_nm", effort)):
+        if np.any(arr <= 0):
+            raise f.fail(f"joint_limits.{key}", "limits must be positive")
+    mount = f.get(raw, "mount", "")
+    rotation = _rpy_matrix(f.array(mount, "rpy_rad", "mount", (3,)))
+    base = np.eye(4)
+    base[:3, :3] = rotation
+    base[:3, 3] = f.array(mount, "xyz_m", "mount", (3,)) + rotation @ f.array(
+        mount, "base_offset_m", "mount", (3,)
+    )
+    gravity_torso = f.array(raw, "gravity_m_s2", "", (3,))
+    return ArmModel(
+        side=side,
+        joint_names=tuple(names),
+        dh=dh,
+        links=links,
+        gravity_m_s2=rotation.T @ gravity_torso,
+        base_in_torso=base,
+        lower_rad=lower,
+        upper_rad=upper,
+        velocity_limit_rad_s=velocity,
+        effort_limit_nm=effort,
+        source=source,
+    )
+
+
+def _parse_link(f: _Fields, raw: Any, where: str) -> LinkInertial:
+    name = f.get(raw, "name", where)
+    mass = float(f.array(raw, "mass_kg", where, ()))
+    if mass <= 0:
+        raise f.fail(f"{where}.mass_kg", f"must be positive, got {mass}")
+    com = f.array(raw, "com_m", where, (3,))
+    tensor = f.get(raw, "inertia_kgm2", where)
+    keys = ("xx", "yy", "zz", "xy", "yz", "xz")
+    xx, yy, zz, xy, yz, xz = (float(f.array(tensor, k, f"{where}.inertia_kgm2", ())) for k in keys)
+    inertia = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+    eig = np.linalg.eigvalsh(inertia)
+    if eig[0] <= 0:
+        raise f.fail(f"{where}.inertia_kgm2", f"not positive definite (eigenvalues {eig.tolist()})")
+    # Principal moments of a real body satisfy the triangle inequality: each ≤ the sum of the others.
+    if eig[2] > eig[0] + eig[1] + 1e-12 * eig[2]:
+        raise f.fail(
+            f"{where}.inertia_kgm2",
+            f"principal moments {eig.tolist()} break the triangle inequality (largest > sum of the others)",
+        )
+    return LinkInertial(name=str(name), mass_kg=mass, com_m=com, inertia_kgm2=inertia)
+
+

@@ -1,0 +1,51 @@
+"""ament_python package: installs with colcon in a ROS 2 workspace and with pip in a venv.
+
+Python dependencies are declared once, here. colcon builds need none of them from PyPI (rosdep
+provides them from package.xml), so they sit in extras: ``pip install -e .[pypi,test]`` installs
+ROS 2 Jazzy from its PyPI wheels (``ros-jazzy-*`` names; the unprefixed ``ros-*`` ones belong to
+another distribution) together with everything else.
+"""
+
+from glob import glob
+
+from setuptools import find_packages, setup
+
+package_name = "baxter_dynamics_ros"
+
+ros_wheels = [
+    "ros-jazzy-rclpy[fastrtps]",
+    "ros-jazzy-sensor-msgs",
+    "ros-jazzy-std-msgs",
+    "ros-jazzy-std-srvs",
+    "ros-jazzy-diagnostic-msgs",
+    "ros-jazzy-rosgraph-msgs",
+    "ros-jazzy-ament-index-python",
+]
+
+setup(
+    name=package_name,
+    version="0.1.0",
+    packages=find_packages(exclude=["test", "test.*", "bench", "bench.*"]),
+    data_files=[
+        ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
+        ("share/" + package_name, ["package.xml"]),
+        ("share/" + package_name + "/config", glob("config/*.yaml")),
+    ],
+    python_requires=">=3.10",
+    install_requires=["setuptools"],
+    extras_require={
+        "pypi": ros_wheels + ["numpy", "numba", "pyyaml", "pin", "rosbags", "scipy", "matplotlib"],
+        "test": ["pytest", "hypothesis"],
+    },
+    zip_safe=True,
+    maintainer="baxter_dynamics_ros maintainers",
+    maintainer_email="maintainers@baxter-dynamics-ros.invalid",
+    description="Lagrange-Euler dynamics of Baxter's arms, a ROS 2 residual node and gap diagnosis.",
+    license="BSD-3-Clause",
+    tests_require=["pytest"],
+    entry_points={
+        "console_scripts": [
+            "baxter-dynamics = baxter_dynamics_ros.cli:main",
+        ],
+    },
+)
