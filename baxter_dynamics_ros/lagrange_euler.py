@@ -45,44 +45,46 @@ N = 7
 
 
 # ----------------------------------------------------------------------------- kernels (one sample)
-@njit(cache=True, inline="always")
-def _link_transform(dh_row: np.ndarray, q: float, out: np.ndarray) -> None:
-    """ⁱ⁻¹T_i of eq. (2) for θ = q + offset; dh_row = (d, a, α, offset)."""
-    th = q + dh_row[3]
-    ct, st = np.cos(th), np.sin(th)
-    ca, sa = np.cos(dh_row[2]), np.sin(dh_row[2])
-    out[0, 0] = ct
-    out[0, 1] = -ca * st
-    out[0, 2] = sa * st
-    out[0, 3] = dh_row[1] * ct
-    out[1, 0] = st
-    out[1, 1] = ca * ct
-    out[1, 2] = -sa * ct
-    out[1, 3] = dh_row[1] * st
-    out[2, 0] = 0.0
-    out[2, 1] = sa
-    out[2, 2] = ca
-    out[2, 3] = dh_row[0]
-    out[3, 0] = 0.0
-    out[3, 1] = 0.0
-    out[3, 2] = 0.0
-    out[3, 3] = 1.0
+@njit(cache=True)
+def _dh_constants(dh: np.ndarray) -> np.ndarray:
+    """(7, 5) rows (d, a, cos α, sin α, θ offset) from the (7, 4) table: α's trigonometry once per batch."""
+    out = np.empty((N, 5))
+    for i in range(N):
+        out[i, 0] = dh[i, 0]
+        out[i, 1] = dh[i, 1]
+        out[i, 2] = np.cos(dh[i, 2])
+        out[i, 3] = np.sin(dh[i, 2])
+        out[i, 4] = dh[i, 3]
+    return out
 
 
 @njit(cache=True)
-def _chain(dh: np.ndarray, q: np.ndarray, T: np.ndarray, A: np.ndarray) -> None:
-    """⁰T_i for i = 0..7 into T (8, 4, 4); A is (4, 4) scratch."""
+def _chain(K: np.ndarray, q: np.ndarray, T: np.ndarray) -> None:
+    """⁰T_i for i = 0..7 into T (8, 4, 4); K from _dh_constants.
+
+    ⁰T_i = ⁰T_{i-1} ⁱ⁻¹T_i with ⁱ⁻¹T_i of eq. (2), θ = q + offset, multiplied out row by row:
+    ⁱ⁻¹T_i = [[cθ, −cα sθ, sα sθ, a cθ], [sθ, cα cθ, −sα cθ, a sθ], [0, sα, cα, d], [0, 0, 0, 1]]
+    (c = cos, s = sin).
+    """
     for r in range(4):
         for c in range(4):
             T[0, r, c] = 1.0 if r == c else 0.0
     for i in range(N):
-        _link_transform(dh[i], q[i], A)
-        for r in range(4):
-            for c in range(4):
-                s = 0.0
-                for k in range(4):
-                    s += T[i, r, k] * A[k, c]
-                T[i + 1, r, c] = s
+        d, a, ca, sa = K[i, 0], K[i, 1], K[i, 2], K[i, 3]
+        th = q[i] + K[i, 4]
+        ct, st = np.cos(th), np.sin(th)
+        for r in range(3):
+            t0, t1, t2, t3 = T[i, r, 0], T[i, r, 1], T[i, r, 2], T[i, r, 3]
+            c0 = t0 * ct + t1 * st
+            u = t1 * ct - t0 * st
+            T[i + 1, r, 0] = c0
+            T[i + 1, r, 1] = ca * u + sa * t2
+            T[i + 1, r, 2] = ca * t2 - sa * u
+            T[i + 1, r, 3] = a * c0 + d * t2 + t3
+        T[i + 1, 3, 0] = 0.0
+        T[i + 1, 3, 1] = 0.0
+        T[i + 1, 3, 2] = 0.0
+        T[i + 1, 3, 3] = 1.0
 
 
 @njit(cache=True)
@@ -100,23 +102,30 @@ def _axes(T: np.ndarray, S: np.ndarray) -> None:
 
 
 @njit(cache=True)
-def _base_inertias(T: np.ndarray, J: np.ndarray, Jb: np.ndarray, tmp: np.ndarray) -> None:
-    """Ĵ_i = ⁰T_i J_i ⁰T_iᵀ into Jb (7, 4, 4); tmp is (4, 4) scratch."""
+def _base_inertias(T: np.ndarray, J: np.ndarray, Jb: np.ndarray, B: np.ndarray) -> None:
+    """Ĵ_i = ⁰T_i J_i ⁰T_iᵀ into Jb (7, 4, 4); B is (4, 4) scratch.
+
+    With ⁰T_i = [[R, p], [0, 1]] and J_i = [[Σ, h], [hᵀ, m]] (h = m c):
+    Ĵ_i = [[R Σ Rᵀ + k pᵀ + p (R h)ᵀ, k], [kᵀ, m]], k = R h + m p.
+    """
     for i in range(N):
-        Ti = T[i + 1]
-        for r in range(4):
-            for c in range(4):
-                s = 0.0
-                for k in range(4):
-                    s += Ti[r, k] * J[i, k, c]
-                tmp[r, c] = s
-        for r in range(4):
-            for c in range(r, 4):
-                s = 0.0
-                for k in range(4):
-                    s += tmp[r, k] * Ti[c, k]
+        Ti, Ji = T[i + 1], J[i]
+        m = Ji[3, 3]
+        for r in range(3):
+            for c in range(3):  # B[:3, :3] = R Σ
+                B[r, c] = Ti[r, 0] * Ji[0, c] + Ti[r, 1] * Ji[1, c] + Ti[r, 2] * Ji[2, c]
+            B[r, 3] = Ti[r, 0] * Ji[0, 3] + Ti[r, 1] * Ji[1, 3] + Ti[r, 2] * Ji[2, 3]  # (R h)_r
+        for r in range(3):
+            k = B[r, 3] + m * Ti[r, 3]
+            Jb[i, r, 3] = k
+            Jb[i, 3, r] = k
+        for r in range(3):
+            for c in range(r, 3):
+                s = B[r, 0] * Ti[c, 0] + B[r, 1] * Ti[c, 1] + B[r, 2] * Ti[c, 2]
+                s += Jb[i, r, 3] * Ti[c, 3] + Ti[r, 3] * B[c, 3]
                 Jb[i, r, c] = s
                 Jb[i, c, r] = s
+        Jb[i, 3, 3] = m
 
 
 @njit(cache=True, inline="always")
@@ -222,11 +231,26 @@ def _rne_sweep(S, Jb, qd, qdd, g, use_gravity, tau, Dsum, Phi, Dall):
 
 
 @njit(cache=True)
-def _gravity_from_composite(S, Jc, g, out, B):
-    """G_i = −g · (Q̂_i Ĵᶜ_i)[:3, 3] of eq. (8)."""
-    for i in range(N):
-        _twist_times(S, i, Jc[i], B)
-        out[i] = -(g[0] * B[0, 3] + g[1] * B[1, 3] + g[2] * B[2, 3])
+def _gravity(T, S, J, g, out):
+    """G_i = −g · (Q̂_i Σ_{j≥i} m_j ⁰T_j r̄_j)[:3] of eq. (8).
+
+    Only the last column of Ĵᶜ_i is needed: Σ_{j≥i} m_j ⁰T_j r̄_j = (Σ R_j h_j + m_j p_j, Σ m_j),
+    and Q̂_i (x, m) = ω_i × x + m v_i.
+    """
+    hx = hy = hz = mass = 0.0
+    for j in range(N - 1, -1, -1):
+        Tj, Jj = T[j + 1], J[j]
+        m = Jj[3, 3]
+        hx += Tj[0, 0] * Jj[0, 3] + Tj[0, 1] * Jj[1, 3] + Tj[0, 2] * Jj[2, 3] + m * Tj[0, 3]
+        hy += Tj[1, 0] * Jj[0, 3] + Tj[1, 1] * Jj[1, 3] + Tj[1, 2] * Jj[2, 3] + m * Tj[1, 3]
+        hz += Tj[2, 0] * Jj[0, 3] + Tj[2, 1] * Jj[1, 3] + Tj[2, 2] * Jj[2, 3] + m * Tj[2, 3]
+        mass += m
+        wx, wy, wz, vx, vy, vz = S[j, 0], S[j, 1], S[j, 2], S[j, 3], S[j, 4], S[j, 5]
+        out[j] = -(
+            g[0] * (wy * hz - wz * hy + mass * vx)
+            + g[1] * (wz * hx - wx * hz + mass * vy)
+            + g[2] * (wx * hy - wy * hx + mass * vz)
+        )
 
 
 @njit(cache=True)
@@ -243,48 +267,44 @@ def _mass_from_composite(S, Jc, out, B):
 # ----------------------------------------------------------------------------- kernels (batches)
 @njit(cache=True)
 def _batch_inverse_dynamics(dh, J, g, q, qd, qdd, use_gravity, out):
+    K = _dh_constants(dh)
     T = np.empty((N + 1, 4, 4))
-    A = np.empty((4, 4))
+    B = np.empty((4, 4))
     S = np.empty((N, 6))
     Jb = np.empty((N, 4, 4))
     Dsum = np.empty((3, 4))
     Phi = np.empty((3, 4))
     D = np.empty((N, 3, 4))
     for n in range(q.shape[0]):
-        _chain(dh, q[n], T, A)
+        _chain(K, q[n], T)
         _axes(T, S)
-        _base_inertias(T, J, Jb, A)
+        _base_inertias(T, J, Jb, B)
         _rne_sweep(S, Jb, qd[n], qdd[n], g, use_gravity, out[n], Dsum, Phi, D)
 
 
 @njit(cache=True)
 def _batch_gravity(dh, J, g, q, out):
+    K = _dh_constants(dh)
     T = np.empty((N + 1, 4, 4))
-    A = np.empty((4, 4))
     S = np.empty((N, 6))
-    Jb = np.empty((N, 4, 4))
-    Jc = np.empty((N, 4, 4))
-    B = np.empty((3, 4))
     for n in range(q.shape[0]):
-        _chain(dh, q[n], T, A)
+        _chain(K, q[n], T)
         _axes(T, S)
-        _base_inertias(T, J, Jb, A)
-        _composite(Jb, Jc)
-        _gravity_from_composite(S, Jc, g, out[n], B)
+        _gravity(T, S, J, g, out[n])
 
 
 @njit(cache=True)
 def _batch_mass_matrix(dh, J, q, out):
+    K = _dh_constants(dh)
     T = np.empty((N + 1, 4, 4))
-    A = np.empty((4, 4))
+    B = np.empty((4, 4))
     S = np.empty((N, 6))
     Jb = np.empty((N, 4, 4))
     Jc = np.empty((N, 4, 4))
-    B = np.empty((3, 4))
     for n in range(q.shape[0]):
-        _chain(dh, q[n], T, A)
+        _chain(K, q[n], T)
         _axes(T, S)
-        _base_inertias(T, J, Jb, A)
+        _base_inertias(T, J, Jb, B)
         _composite(Jb, Jc)
         _mass_from_composite(S, Jc, out[n], B)
 
@@ -315,12 +335,12 @@ def _cholesky_solve(Mm, b, L, x):
 
 @njit(cache=True)
 def _batch_forward_dynamics(dh, J, g, q, qd, tau, out):
+    K = _dh_constants(dh)
     T = np.empty((N + 1, 4, 4))
-    A = np.empty((4, 4))
+    B = np.empty((4, 4))
     S = np.empty((N, 6))
     Jb = np.empty((N, 4, 4))
     Jc = np.empty((N, 4, 4))
-    B = np.empty((3, 4))
     Dsum = np.empty((3, 4))
     Phi = np.empty((3, 4))
     D = np.empty((N, 3, 4))
@@ -329,9 +349,9 @@ def _batch_forward_dynamics(dh, J, g, q, qd, tau, out):
     h = np.empty(N)
     zero = np.zeros(N)
     for n in range(q.shape[0]):
-        _chain(dh, q[n], T, A)
+        _chain(K, q[n], T)
         _axes(T, S)
-        _base_inertias(T, J, Jb, A)
+        _base_inertias(T, J, Jb, B)
         _composite(Jb, Jc)
         _mass_from_composite(S, Jc, Mm, B)
         _rne_sweep(S, Jb, qd[n], zero, g, True, h, Dsum, Phi, D)
@@ -342,10 +362,10 @@ def _batch_forward_dynamics(dh, J, g, q, qd, tau, out):
 
 @njit(cache=True)
 def _batch_kinematics(dh, q, pose, jac):
+    K = _dh_constants(dh)
     T = np.empty((N + 1, 4, 4))
-    A = np.empty((4, 4))
     for n in range(q.shape[0]):
-        _chain(dh, q[n], T, A)
+        _chain(K, q[n], T)
         for r in range(4):
             for c in range(4):
                 pose[n, r, c] = T[N, r, c]

@@ -1,0 +1,282 @@
+"""The Lagrange-Euler core against Pinocchio, the URDF, the paper's literal equations and physics."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+from reference_models import (
+    URDF_PATH,
+    LiteralLagrangeEuler,
+    PinocchioArm,
+    assert_close,
+    pinocchio_from_arm,
+    pinocchio_from_urdf,
+    potential_energy,
+    random_states,
+)
+
+from baxter_dynamics_ros import ArmModel, InputShapeError, load_arm_model
+
+N_STATES = 1000
+RTOL = 1e-9
+
+
+@pytest.fixture(scope="module", params=["right", "left"])
+def arm(request: pytest.FixtureRequest) -> ArmModel:
+    return load_arm_model(request.param)
+
+
+@dataclass(frozen=True)
+class PinocchioCase:
+    """Random states within the limits and Pinocchio's answers for them, (N_STATES, ...) arrays."""
+
+    arm: ArmModel
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    tau_in: np.ndarray
+    tau: np.ndarray
+    tau_no_qdd: np.ndarray
+    gravity: np.ndarray
+    mass: np.ndarray
+    pose: np.ndarray
+    jacobian: np.ndarray
+    qdd_aba: np.ndarray
+
+
+@pytest.fixture(scope="module")
+def case(arm: ArmModel) -> PinocchioCase:
+    """Pinocchio on a model built from the same YAML parameters, called per sample."""
+    ref = pinocchio_from_arm(arm)
+    q, qd, qdd = random_states(arm, N_STATES, seed=2, qdd_max_rad_s2=10.0)
+    tau_in = np.random.default_rng(3).uniform(-arm.effort_limit_nm, arm.effort_limit_nm, (N_STATES, 7))
+
+    def each(f, *arrays):
+        return np.array([f(*row) for row in zip(*arrays)])
+
+    return PinocchioCase(
+        arm=arm,
+        q=q,
+        qd=qd,
+        qdd=qdd,
+        tau_in=tau_in,
+        tau=each(ref.rnea, q, qd, qdd),
+        tau_no_qdd=each(ref.rnea, q, qd, np.zeros_like(qdd)),
+        gravity=each(ref.gravity, q),
+        mass=each(ref.mass_matrix, q),
+        pose=each(ref.flange_pose, q),
+        jacobian=each(ref.flange_jacobian, q),
+        qdd_aba=each(ref.forward_dynamics, q, qd, tau_in),
+    )
+
+
+# ----------------------------------------------------------------------------- Pinocchio, same parameters
+def test_mass_matrix_matches_crba(case: PinocchioCase) -> None:
+    assert_close(case.arm.mass_matrix(case.q), case.mass, "M vs crba", rtol=RTOL)
+
+
+def test_gravity_matches_pinocchio(case: PinocchioCase) -> None:
+    assert_close(case.arm.gravity(case.q), case.gravity, "G vs computeGeneralizedGravity", rtol=RTOL)
+
+
+def test_inverse_dynamics_matches_rnea(case: PinocchioCase) -> None:
+    assert_close(case.arm.inverse_dynamics(case.q, case.qd, case.qdd), case.tau, "tau vs rnea", rtol=RTOL)
+
+
+def test_coriolis_matches_rnea_without_acceleration_and_gravity(case: PinocchioCase) -> None:
+    expected = case.tau_no_qdd - case.gravity
+    assert_close(case.arm.coriolis(case.q, case.qd), expected, "C vs rnea(q, qd, 0) - G", rtol=RTOL)
+
+
+def test_forward_dynamics_matches_aba(case: PinocchioCase) -> None:
+    assert_close(case.arm.forward_dynamics(case.q, case.qd, case.tau_in), case.qdd_aba, "qdd vs aba", rtol=RTOL)
+
+
+def test_forward_kinematics_matches_pinocchio(case: PinocchioCase) -> None:
+    assert_close(case.arm.forward_kinematics(case.q), case.pose, "flange pose", rtol=RTOL)
+
+
+def test_jacobian_matches_pinocchio(case: PinocchioCase) -> None:
+    assert_close(case.arm.jacobian(case.q), case.jacobian, "flange Jacobian (v, w)", rtol=RTOL)
+
+
+# ----------------------------------------------------------------------------- the URDF
+@pytest.fixture(scope="module")
+def urdf(arm: ArmModel) -> PinocchioArm:
+    if not URDF_PATH.is_file():
+        pytest.skip(f"reference URDF not found at {URDF_PATH}")
+    return pinocchio_from_urdf(arm)
+
+
+def test_base_frame_matches_urdf(arm: ArmModel, urdf: PinocchioArm) -> None:
+    """DH frame 0 placed by the model file's mount is the URDF's arm mount + s0 offset (torso = world)."""
+    np.testing.assert_allclose(arm.base_in_torso, urdf.base.homogeneous, atol=1e-12)
+
+
+def test_flange_position_matches_urdf(arm: ArmModel, urdf: PinocchioArm) -> None:
+    q, _, _ = random_states(arm, 200, seed=4, qdd_max_rad_s2=0.0)
+    expected = np.array([urdf.flange_pose(x) for x in q])
+    assert_close(arm.forward_kinematics(q)[:, :3, 3], expected[:, :3, 3], "flange position [m]", atol=1e-3)
+    assert_close(arm.forward_kinematics(q)[:, :3, :3], expected[:, :3, :3], "flange rotation", atol=1e-6)
+
+
+def test_gravity_and_torque_match_urdf(arm: ArmModel, urdf: PinocchioArm) -> None:
+    """Within 0.01 N·m over the whole velocity range (|qd| up to the limits, |qdd| <= 5 rad/s²).
+
+    What remains is the paper's centres of mass, 0.07 mm off the URDF's on links 3-7.
+    """
+    q, qd, qdd = random_states(arm, 300, seed=5, qdd_max_rad_s2=5.0)
+    gravity = np.array([urdf.gravity(x) for x in q])
+    tau = np.array([urdf.rnea(*s) for s in zip(q, qd, qdd)])
+    assert_close(arm.gravity(q), gravity, "G vs URDF [N·m]", atol=0.01)
+    assert_close(arm.inverse_dynamics(q, qd, qdd), tau, "tau vs URDF [N·m]", atol=0.01)
+
+
+# Holding torques of the URDF model (right arm, no gripper), from ../shared/reference/README.md.
+HOLDING = [
+    (np.zeros(7), [0.0, -52.876, 0.030, -15.609, 0.201, -1.819, 0.005]),
+    (np.array([0.0, -0.55, 0.0, 0.75, 0.0, 1.26, 0.0]), [0.0, -47.582, 0.026, -13.539, 0.197, -0.065, 0.001]),
+]
+
+
+@pytest.mark.parametrize(("q", "expected"), HOLDING, ids=["zero", "neutral"])
+def test_holding_torques(arm: ArmModel, q: np.ndarray, expected: list[float]) -> None:
+    """Both arms: the mount is a rotation about the vertical, so joint-space torques are the same."""
+    assert_close(arm.gravity(q)[None], np.array([expected]), f"{arm.side} holding torque [N·m]", atol=0.01)
+    at_rest = arm.inverse_dynamics(q, np.zeros(7), np.zeros(7))
+    assert_close(at_rest[None], np.array([expected]), f"{arm.side} tau(q, 0, 0) [N·m]", atol=0.01)
+
+
+# ----------------------------------------------------------------------------- the paper, literally
+def test_recursions_match_literal_equations(arm: ArmModel) -> None:
+    oracle = LiteralLagrangeEuler(arm)
+    q, qd, qdd = random_states(arm, 4, seed=6, qdd_max_rad_s2=10.0)
+    assert_close(arm.mass_matrix(q), np.array([oracle.mass_matrix(x) for x in q]), "M vs eq. (6)", rtol=RTOL)
+    assert_close(arm.coriolis(q, qd), np.array([oracle.coriolis(*s) for s in zip(q, qd)]), "C vs eq. (7)", rtol=RTOL)
+    assert_close(arm.gravity(q), np.array([oracle.gravity(x) for x in q]), "G vs eq. (8)", rtol=RTOL)
+    expected = np.array([oracle.inverse_dynamics(*s) for s in zip(q, qd, qdd)])
+    assert_close(arm.inverse_dynamics(q, qd, qdd), expected, "tau vs eq. (1)", rtol=RTOL)
+
+
+# ----------------------------------------------------------------------------- physics
+def test_mass_matrix_symmetric_positive_definite(case: PinocchioCase) -> None:
+    mass = case.arm.mass_matrix(case.q)
+    np.testing.assert_array_equal(mass, np.swapaxes(mass, -1, -2))
+    assert np.linalg.eigvalsh(mass).min() > 0.0
+
+
+def _mass_matrix_gradient(arm: ArmModel, q: np.ndarray, h: float = 1e-6) -> np.ndarray:
+    """∂M/∂q_k (7, 7, 7), index k first, by central differences of mass_matrix."""
+    steps = h * np.eye(7)
+    return (arm.mass_matrix(q + steps) - arm.mass_matrix(q - steps)) / (2.0 * h)
+
+
+def test_christoffel_structure(arm: ArmModel) -> None:
+    """With N_ij = Σ_k c_ijk q̇_k (Christoffel symbols of M): Ṁ − 2N is skew-symmetric and C = N q̇."""
+    q, qd, _ = random_states(arm, 20, seed=7, qdd_max_rad_s2=0.0)
+    for qi, qdi in zip(q, qd):
+        dm = _mass_matrix_gradient(arm, qi)
+        christoffel = 0.5 * (dm.transpose(1, 2, 0) + dm.transpose(1, 0, 2) - dm)  # c[i, j, k]
+        n_matrix = christoffel @ qdi
+        m_dot = np.tensordot(qdi, dm, axes=1)
+        skew = m_dot - 2.0 * n_matrix
+        assert_close((skew + skew.T)[None], np.zeros((1, 7, 7)), "Mdot - 2N + (Mdot - 2N)^T", atol=1e-6)
+        assert_close(arm.coriolis(qi, qdi)[None], (n_matrix @ qdi)[None], "C vs N qd", rtol=1e-6)
+
+
+def test_gravity_is_gradient_of_potential(arm: ArmModel) -> None:
+    q, _, _ = random_states(arm, 5, seed=8, qdd_max_rad_s2=0.0)
+    h = 1e-6
+    for qi in q:
+        grad = [(potential_energy(arm, qi + h * e) - potential_energy(arm, qi - h * e)) / (2 * h) for e in np.eye(7)]
+        assert_close(arm.gravity(qi)[None], np.array([grad]), "G vs dP/dq", atol=1e-6)
+
+
+def test_free_motion_conserves_energy(arm: ArmModel) -> None:
+    """τ = 0 with gravity, RK4 at 0.25 ms for 2 s, 4 initial states integrated as one batch."""
+    q, qd, _ = random_states(arm, 4, seed=9, qdd_max_rad_s2=0.0)
+    qd = 0.5 * qd
+    tau = np.zeros_like(q)
+    dt_s, steps = 2.5e-4, 8000
+
+    def rates(x: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return v, arm.forward_dynamics(x, v, tau)
+
+    def energy(x: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        kinetic = 0.5 * np.einsum("ni,nij,nj->n", v, arm.mass_matrix(x), v)
+        return kinetic, kinetic + np.array([potential_energy(arm, xi) for xi in x])
+
+    kinetic, e0 = energy(q, qd)
+    kinetic_max, drift = kinetic, np.zeros(len(q))
+    for step in range(1, steps + 1):
+        k1 = rates(q, qd)
+        k2 = rates(q + 0.5 * dt_s * k1[0], qd + 0.5 * dt_s * k1[1])
+        k3 = rates(q + 0.5 * dt_s * k2[0], qd + 0.5 * dt_s * k2[1])
+        k4 = rates(q + dt_s * k3[0], qd + dt_s * k3[1])
+        q = q + dt_s / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0])
+        qd = qd + dt_s / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1])
+        if step % 100 == 0:
+            kinetic, e = energy(q, qd)
+            kinetic_max = np.maximum(kinetic_max, kinetic)
+            drift = np.maximum(drift, np.abs(e - e0))
+    assert np.all(kinetic_max > 10.0), "the arm should swing: too little energy exchanged to test anything"
+    relative = drift / kinetic_max
+    assert np.all(relative <= 1e-6), f"energy drift relative to peak kinetic energy: {relative}"
+
+
+# ----------------------------------------------------------------------------- batches and shapes
+def _all_outputs(arm: ArmModel, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> dict[str, np.ndarray]:
+    return {
+        "gravity": arm.gravity(q),
+        "mass_matrix": arm.mass_matrix(q),
+        "coriolis": arm.coriolis(q, qd),
+        "inverse_dynamics": arm.inverse_dynamics(q, qd, qdd),
+        "forward_dynamics": arm.forward_dynamics(q, qd, qdd),
+        "forward_kinematics": arm.forward_kinematics(q),
+        "jacobian": arm.jacobian(q),
+    }
+
+
+TRAILING = {"mass_matrix": (7, 7), "forward_kinematics": (4, 4), "jacobian": (6, 7)}
+
+
+@pytest.mark.parametrize("lead", [(), (5,), (2, 3), (0,)], ids=["single", "batch", "2d-batch", "empty"])
+def test_outputs_keep_leading_shape_and_match_per_sample(lead: tuple[int, ...]) -> None:
+    arm = load_arm_model("right")
+    n = int(np.prod(lead, dtype=int))
+    q, qd, qdd = (x.reshape(lead + (7,)) for x in random_states(arm, n, seed=10, qdd_max_rad_s2=5.0))
+    batched = _all_outputs(arm, q, qd, qdd)
+    flat = [x.reshape(-1, 7) for x in (q, qd, qdd)]
+    for name, out in batched.items():
+        assert out.shape == lead + TRAILING.get(name, (7,)), name
+        singles = [_all_outputs(arm, *s)[name] for s in zip(*flat)]
+        expected = np.array(singles).reshape(out.shape)
+        np.testing.assert_allclose(out, expected, rtol=1e-13, atol=1e-13, err_msg=name)
+
+
+def test_accepts_lists_and_integer_arrays() -> None:
+    arm = load_arm_model("right")
+    np.testing.assert_array_equal(arm.gravity([0, 0, 0, 0, 0, 0, 0]), arm.gravity(np.zeros(7)))
+
+
+@pytest.mark.parametrize(
+    ("call", "match"),
+    [
+        (lambda arm: arm.gravity(np.zeros(6)), r"q: expected shape \(7,\) or \(N, 7\), got \(6,\)"),
+        (lambda arm: arm.mass_matrix(np.float64(0.0)), r"q: expected shape \(7,\) or \(N, 7\), got \(\)"),
+        (lambda arm: arm.jacobian(np.zeros((3, 6))), r"q: expected shape .* got \(3, 6\)"),
+        (lambda arm: arm.forward_kinematics(np.zeros((7, 3))), r"q: expected shape .* got \(7, 3\)"),
+        (lambda arm: arm.coriolis(np.zeros(7), np.zeros(8)), r"qd: expected shape .* got \(8,\)"),
+        (
+            lambda arm: arm.inverse_dynamics(np.zeros((5, 7)), np.zeros((4, 7)), np.zeros((5, 7))),
+            r"inputs must have the same shape, got q \(5, 7\), qd \(4, 7\), qdd \(5, 7\)",
+        ),
+        (lambda arm: arm.forward_dynamics(np.zeros(7), np.zeros(7), np.zeros((1, 7))), r"tau \(1, 7\)"),
+    ],
+    ids=["short", "scalar", "batch-of-6", "transposed", "qd-long", "batch-mismatch", "single-vs-batch"],
+)
+def test_wrong_shapes_raise_input_shape_error(call, match: str) -> None:
+    with pytest.raises(InputShapeError, match=match):
+        call(load_arm_model("right"))
