@@ -19,7 +19,15 @@ import yaml
 from . import lagrange_euler
 from .errors import ModelFileError
 
-__all__ = ["ArmModel", "LinkInertial", "config_dir", "load_arm_model", "pseudo_inertia"]
+__all__ = [
+    "ArmModel",
+    "LinkInertial",
+    "config_dir",
+    "link_from_parameters",
+    "link_parameters",
+    "load_arm_model",
+    "pseudo_inertia",
+]
 
 N_JOINTS = 7
 PACKAGE = "baxter_dynamics_ros"
@@ -51,6 +59,22 @@ def pseudo_inertia(link: LinkInertial) -> np.ndarray:
     j[:3, 3] = j[3, :3] = m * c
     j[3, 3] = m
     return j
+
+
+def link_parameters(link: LinkInertial) -> np.ndarray:
+    """(10,) inertial parameters of one link: m, m·c, and the tensor about the frame origin (xx xy xz yy yz zz)."""
+    m, c = link.mass_kg, link.com_m
+    origin = link.inertia_kgm2 + m * (np.dot(c, c) * np.eye(3) - np.outer(c, c))
+    return np.array([m, *(m * c), origin[0, 0], origin[0, 1], origin[0, 2], origin[1, 1], origin[1, 2], origin[2, 2]])
+
+
+def link_from_parameters(name: str, pi: np.ndarray) -> LinkInertial:
+    """Inverse of :func:`link_parameters`: a LinkInertial (not validated) from 10 parameters."""
+    m = float(pi[0])
+    c = np.asarray(pi[1:4]) / m
+    xx, xy, xz, yy, yz, zz = pi[4:10]
+    origin = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+    return LinkInertial(name, m, c, origin - m * (np.dot(c, c) * np.eye(3) - np.outer(c, c)))
 
 
 def _rpy_matrix(rpy: np.ndarray) -> np.ndarray:
@@ -96,6 +120,15 @@ class ArmModel:
                 value.flags.writeable = False
 
     @property
+    def inertial_parameters(self) -> np.ndarray:
+        """(70,) the links' inertial parameters π in the order of :func:`lagrange_euler.inertial_basis`.
+
+        Per link: m [kg], m·c [kg·m], then I_xx, I_xy, I_xz, I_yy, I_yz, I_zz [kg·m²] of the tensor
+        about the DH frame's origin, so that τ = inertial_regressor(q, q̇, q̈) · π.
+        """
+        return np.concatenate([link_parameters(link) for link in self.links])
+
+    @property
     def masses_kg(self) -> np.ndarray:
         """(7,) link masses in kg."""
         return np.array([link.mass_kg for link in self.links])
@@ -124,6 +157,10 @@ class ArmModel:
     def forward_kinematics(self, q: np.ndarray) -> np.ndarray:
         """(..., 4, 4) pose of the hand flange (DH frame 7) in the arm base frame; q (..., 7) rad."""
         return lagrange_euler.forward_kinematics(self.dh, q)
+
+    def inertial_regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+        """(..., 7, 70) Y with inverse_dynamics = Y · inertial_parameters; inputs (..., 7)."""
+        return lagrange_euler.inertial_regressor(self.dh, self.gravity_m_s2, q, qd, qdd)
 
     def jacobian(self, q: np.ndarray) -> np.ndarray:
         """(..., 6, 7) geometric Jacobian of the flange in the base frame, rows (v [m/s], ω [rad/s])."""

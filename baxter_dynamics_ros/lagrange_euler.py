@@ -36,6 +36,8 @@ __all__ = [
     "forward_dynamics",
     "forward_kinematics",
     "gravity",
+    "inertial_basis",
+    "inertial_regressor",
     "inverse_dynamics",
     "jacobian",
     "mass_matrix",
@@ -165,11 +167,10 @@ def _composite(Jb: np.ndarray, Jc: np.ndarray) -> None:
 
 
 @njit(cache=True)
-def _rne_sweep(S, Jb, qd, qdd, g, use_gravity, tau, Dsum, Phi, Dall):
-    """τ of eq. (5) from the recursive form: τ_i = ⟨Σ_{j≥i} (Ẇ_j + W_j²) Ĵ_j, Q̂_i⟩.
+def _link_accelerations(S, qd, qdd, g, use_gravity, Phi):
+    """Φ_j = Ẇ_j + W_j² (rows 0..2) into Phi (7, 3, 4), so that T̈_j = Φ_j ⁰T_j.
 
-    W = (ω, v) and Ẇ = (α, a) are twists; with use_gravity, Ẇ_0 = (0, −g) adds G(q).
-    Phi (3, 4), Dsum (3, 4) and Dall (7, 3, 4) are scratch.
+    W = (ω, v) and Ẇ = (α, a) are twists; with use_gravity, Ẇ_0 = (0, −g) adds G(q) downstream.
     """
     w0 = w1 = w2 = v0 = v1 = v2 = 0.0
     al0 = al1 = al2 = 0.0
@@ -177,10 +178,6 @@ def _rne_sweep(S, Jb, qd, qdd, g, use_gravity, tau, Dsum, Phi, Dall):
         a0, a1, a2 = -g[0], -g[1], -g[2]
     else:
         a0 = a1 = a2 = 0.0
-    for r in range(3):
-        for c in range(4):
-            Dsum[r, c] = 0.0
-    # forward sweep, storing each link's D_j = Φ_j Ĵ_j for the backward sums
     for j in range(N):
         sw0, sw1, sw2, sv0, sv1, sv2 = S[j, 0], S[j, 1], S[j, 2], S[j, 3], S[j, 4], S[j, 5]
         qdj, qddj = qd[j], qdd[j]
@@ -205,28 +202,44 @@ def _rne_sweep(S, Jb, qd, qdd, g, use_gravity, tau, Dsum, Phi, Dall):
         v2 += sv2 * qdj
         # Φ = Ẇ + W² (rows 0..2): [α× + ω×ω×, a + ω × v]
         ww = w0 * w0 + w1 * w1 + w2 * w2
-        Phi[0, 0] = w0 * w0 - ww
-        Phi[0, 1] = -al2 + w0 * w1
-        Phi[0, 2] = al1 + w0 * w2
-        Phi[1, 0] = al2 + w1 * w0
-        Phi[1, 1] = w1 * w1 - ww
-        Phi[1, 2] = -al0 + w1 * w2
-        Phi[2, 0] = -al1 + w2 * w0
-        Phi[2, 1] = al0 + w2 * w1
-        Phi[2, 2] = w2 * w2 - ww
-        Phi[0, 3] = a0 + w1 * v2 - w2 * v1
-        Phi[1, 3] = a1 + w2 * v0 - w0 * v2
-        Phi[2, 3] = a2 + w0 * v1 - w1 * v0
-        for r in range(3):
-            for c in range(4):
-                s = 0.0
-                for k in range(4):
-                    s += Phi[r, k] * Jb[j, k, c]
-                Dall[j, r, c] = s
+        P = Phi[j]
+        P[0, 0] = w0 * w0 - ww
+        P[0, 1] = -al2 + w0 * w1
+        P[0, 2] = al1 + w0 * w2
+        P[1, 0] = al2 + w1 * w0
+        P[1, 1] = w1 * w1 - ww
+        P[1, 2] = -al0 + w1 * w2
+        P[2, 0] = -al1 + w2 * w0
+        P[2, 1] = al0 + w2 * w1
+        P[2, 2] = w2 * w2 - ww
+        P[0, 3] = a0 + w1 * v2 - w2 * v1
+        P[1, 3] = a1 + w2 * v0 - w0 * v2
+        P[2, 3] = a2 + w0 * v1 - w1 * v0
+
+
+@njit(cache=True, inline="always")
+def _times_inertia(P: np.ndarray, X: np.ndarray, out: np.ndarray) -> None:
+    """out (3, 4) = P (3, 4) · X (4, 4)."""
+    for r in range(3):
+        for c in range(4):
+            out[r, c] = P[r, 0] * X[0, c] + P[r, 1] * X[1, c] + P[r, 2] * X[2, c] + P[r, 3] * X[3, c]
+
+
+@njit(cache=True)
+def _rne_sweep(S, Jb, qd, qdd, g, use_gravity, tau, Dsum, Phi, D):
+    """τ of eq. (5) from the recursive form: τ_i = ⟨Σ_{j≥i} Φ_j Ĵ_j, Q̂_i⟩ (Φ_j = Ẇ_j + W_j²).
+
+    Phi (7, 3, 4), D (3, 4) and Dsum (3, 4) are scratch.
+    """
+    _link_accelerations(S, qd, qdd, g, use_gravity, Phi)
+    for r in range(3):
+        for c in range(4):
+            Dsum[r, c] = 0.0
     for i in range(N - 1, -1, -1):
+        _times_inertia(Phi[i], Jb[i], D)
         for r in range(3):
             for c in range(4):
-                Dsum[r, c] += Dall[i, r, c]
+                Dsum[r, c] += D[r, c]
         tau[i] = _frobenius_with_twist(S, i, Dsum)
 
 
@@ -273,8 +286,8 @@ def _batch_inverse_dynamics(dh, J, g, q, qd, qdd, use_gravity, out):
     S = np.empty((N, 6))
     Jb = np.empty((N, 4, 4))
     Dsum = np.empty((3, 4))
-    Phi = np.empty((3, 4))
-    D = np.empty((N, 3, 4))
+    Phi = np.empty((N, 3, 4))
+    D = np.empty((3, 4))
     for n in range(q.shape[0]):
         _chain(K, q[n], T)
         _axes(T, S)
@@ -307,6 +320,50 @@ def _batch_mass_matrix(dh, J, q, out):
         _base_inertias(T, J, Jb, B)
         _composite(Jb, Jc)
         _mass_from_composite(S, Jc, out[n], B)
+
+
+def inertial_basis() -> np.ndarray:
+    """(10, 4, 4): pseudo-inertias of the unit inertial parameters, J = Σ_k π_k E_k.
+
+    π = (m, m c_x, m c_y, m c_z, I_xx, I_xy, I_xz, I_yy, I_yz, I_zz) with I the inertia tensor about
+    the link frame's origin (tensor elements) and J = [[½ tr(I) 𝟙 − I, m c], [m cᵀ, m]] (eq. 12).
+    """
+    E = np.zeros((10, 4, 4))
+    E[0, 3, 3] = 1.0
+    for k in range(3):
+        E[1 + k, k, 3] = E[1 + k, 3, k] = 1.0
+    for k, (r, c) in enumerate(((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))):
+        unit = np.zeros((3, 3))
+        unit[r, c] = unit[c, r] = 1.0
+        E[4 + k, :3, :3] = 0.5 * np.trace(unit) * np.eye(3) - unit
+    return E
+
+
+@njit(cache=True)
+def _batch_inertial_regressor(dh, E, g, q, qd, qdd, out):
+    """out (M, 7, 70): τ = Y π, π the 10 inertial parameters of each link in turn (eq. 5 is linear in J_j)."""
+    K = _dh_constants(dh)
+    n_par = E.shape[0]
+    T = np.empty((N + 1, 4, 4))
+    B = np.empty((4, 4))
+    S = np.empty((N, 6))
+    Jb = np.empty((N, 4, 4))
+    Phi = np.empty((N, 3, 4))
+    D = np.empty((3, 4))
+    Ek = np.empty((N, 4, 4))
+    for n in range(q.shape[0]):
+        _chain(K, q[n], T)
+        _axes(T, S)
+        _link_accelerations(S, qd[n], qdd[n], g, True, Phi)
+        for k in range(n_par):
+            for j in range(N):
+                Ek[j] = E[k]
+            _base_inertias(T, Ek, Jb, B)
+            for j in range(N):
+                _times_inertia(Phi[j], Jb[j], D)
+                col = n_par * j + k
+                for i in range(N):
+                    out[n, i, col] = _frobenius_with_twist(S, i, D) if i <= j else 0.0
 
 
 @njit(cache=True)
@@ -342,8 +399,8 @@ def _batch_forward_dynamics(dh, J, g, q, qd, tau, out):
     Jb = np.empty((N, 4, 4))
     Jc = np.empty((N, 4, 4))
     Dsum = np.empty((3, 4))
-    Phi = np.empty((3, 4))
-    D = np.empty((N, 3, 4))
+    Phi = np.empty((N, 3, 4))
+    D = np.empty((3, 4))
     Mm = np.empty((N, N))
     L = np.empty((N, N))
     h = np.empty(N)
@@ -442,6 +499,18 @@ def forward_dynamics(dh, pseudo_inertias, gravity_m_s2, q, qd, tau) -> np.ndarra
     out = np.empty_like(q2)
     _batch_forward_dynamics(dh, pseudo_inertias, gravity_m_s2, q2, qd2, tau2, out)
     return out.reshape(lead + (N,))
+
+
+def inertial_regressor(dh, gravity_m_s2, q, qd, qdd) -> np.ndarray:
+    """Y (..., 7, 70) with τ = Y π (N·m): the regressor of the links' inertial parameters.
+
+    π stacks, link by link, the 10 parameters of :func:`inertial_basis` (kg, kg·m, kg·m²) in each
+    link's DH frame; gravity included. q, qd, qdd (..., 7) in rad, rad/s, rad/s².
+    """
+    (q2, qd2, qdd2), lead = _as_batches(q=q, qd=qd, qdd=qdd)
+    out = np.empty((q2.shape[0], N, 10 * N))
+    _batch_inertial_regressor(dh, inertial_basis(), gravity_m_s2, q2, qd2, qdd2, out)
+    return out.reshape(lead + (N, 10 * N))
 
 
 def _kinematics(dh, q) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
