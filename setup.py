@@ -34,8 +34,8 @@ setup(
     python_requires=">=3.10",
     install_requires=["setuptools"],
     extras_require={
-        "pypi": ros_wheels + ["numpy", "numba", "pyyaml", "pin", "rosbags", "scipy", "matplotlib"],
-        "test": ["pytest", "hypothesis"],
+        "pypi": ros_wheels + ["numpy", "numba", "pyyaml", "pin", "rosbags", "scipy", "matplotlib", "pyarrow"],
+        "test": ["pytest", "hypothesis", "colcon-common-extensions", "mcap"],
     },
     zip_safe=True,
     maintainer="baxter_dynamics_ros maintainers",
@@ -46,6 +46,7 @@ setup(
     entry_points={
         "console_scripts": [
             "baxter-dynamics = baxter_dynamics_ros.cli:main",
+            "baxter_dynamics_node = baxter_dynamics_ros.node:main",
         ],
     },
 )

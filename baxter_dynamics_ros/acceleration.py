@@ -3,7 +3,8 @@
 Baxter does not publish q̈; the paper took the raw first difference of q̇ at 50 Hz, whose noise
 dominated its torque errors. Three estimators, all on (..., 7) arrays:
 
-- :func:`first_difference` — the paper's q̈_k = (q̇_k − q̇_{k−1}) / Δt_k (causal, unfiltered).
+- :func:`first_difference` — the paper's q̈_k = (q̇_k − q̇_{k−1}) / Δt_k (causal, unfiltered);
+  :class:`FirstDifference` is the same, one sample at a time, for the live node.
 - :class:`LowPassDifferentiator` — causal, for the live node: q̇ through a second-order low-pass
   filter ẍ = ω_c² (q̇ − x) − 2ζω_c ẋ, whose state ẋ is the estimate. Discretised by the trapezoidal
   rule per sample with the sample's own Δt, so it is stable for any Δt and identical offline and
@@ -18,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["LowPassDifferentiator", "first_difference", "zero_phase_acceleration"]
+__all__ = ["FirstDifference", "LowPassDifferentiator", "first_difference", "zero_phase_acceleration"]
 
 
 def first_difference(qd: np.ndarray, stamps_s: np.ndarray) -> np.ndarray:
@@ -28,6 +29,34 @@ def first_difference(qd: np.ndarray, stamps_s: np.ndarray) -> np.ndarray:
     qdd = np.zeros_like(qd)
     qdd[1:] = np.diff(qd, axis=0) / dt[:, None]
     return qdd
+
+
+class FirstDifference:
+    """:func:`first_difference` one sample at a time, with :class:`LowPassDifferentiator`'s interface.
+
+    ``update(qd, dt_s)`` takes q̇ (7,) in rad/s and the time since the previous sample in s, and
+    returns (q̇ − q̇_previous) / dt_s (7,) in rad/s²; zeros for the first sample after construction
+    or :meth:`reset`.
+    """
+
+    def __init__(self) -> None:
+        self._u: np.ndarray | None = None  # previous input q̇, (7,)
+
+    def reset(self) -> None:
+        """Forget the previous sample."""
+        self._u = None
+
+    def update(self, qd: np.ndarray, dt_s: float) -> np.ndarray:
+        """Feed q̇ (7,) rad/s measured dt_s seconds after the previous sample; returns q̈ (7,) rad/s²."""
+        u = np.array(qd, dtype=float)
+        previous = self._u
+        if previous is None:
+            self._u = u
+            return np.zeros_like(u)
+        if not (np.isfinite(dt_s) and dt_s > 0):
+            raise ValueError(f"dt_s must be positive and finite, got {dt_s}")
+        self._u = u
+        return (u - previous) / dt_s
 
 
 class LowPassDifferentiator:

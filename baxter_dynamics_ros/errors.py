@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-__all__ = ["BaxterDynamicsError", "ModelFileError", "InputShapeError"]
+__all__ = ["BaxterDynamicsError", "ModelFileError", "InputShapeError", "RecordingError", "RecordingFileError", "EffectSpecError", "SimulationError", "PlaybackError", "SettingsError", "DiagnosisError"]
 
 
 class BaxterDynamicsError(Exception):
@@ -15,3 +15,31 @@ class ModelFileError(BaxterDynamicsError):
 
 class InputShapeError(BaxterDynamicsError, ValueError):
     """An array handed to the dynamics has the wrong shape."""
+
+
+class RecordingError(BaxterDynamicsError, ValueError):
+    """A recording's arrays are inconsistent (shapes, time order, non-finite values, unknown arm)."""
+
+
+class RecordingFileError(BaxterDynamicsError):
+    """A bag or table file cannot be read or written: missing, corrupt, lacking the arm's joints."""
+
+
+class EffectSpecError(BaxterDynamicsError, ValueError):
+    """An unmodelled-effect specification (YAML/JSON or constructor arguments) is invalid."""
+
+
+class SimulationError(BaxterDynamicsError):
+    """A simulation cannot run as asked: a trajectory leaves the joint limits, the integration would be unstable."""
+
+
+class PlaybackError(BaxterDynamicsError):
+    """Playback into ROS cannot go on (no subscriber came, nothing to play)."""
+
+
+class SettingsError(BaxterDynamicsError, ValueError):
+    """A setting of the dynamics node (a ROS parameter) has an invalid value."""
+
+
+class DiagnosisError(BaxterDynamicsError):
+    """A gap diagnosis cannot run on the data given (no test data, mixed arms, too little data)."""

@@ -1,0 +1,78 @@
+"""The ``baxter-dynamics`` command line: a thin argparse shell over command modules.
+
+Each command lives in its own module exposing ``add_arguments(parser)`` and ``run(args) -> int``;
+its one-line help sits in :data:`COMMANDS`. Modules are imported only when their command runs, so ``--help`` stays
+fast and ``process`` never imports rclpy. To add a command, add one entry to :data:`COMMANDS`.
+
+Errors of this package (:class:`~baxter_dynamics_ros.errors.BaxterDynamicsError`) are caught here,
+at the edge, and printed as one ``ERROR: ...`` line on stderr with exit status 1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Sequence
+
+from .errors import BaxterDynamicsError
+
+__all__ = ["COMMANDS", "main"]
+
+#: command name -> (module implementing it, one-line help). The module is imported lazily.
+COMMANDS: dict[str, tuple[str, str]] = {
+    "process": (
+        "baxter_dynamics_ros.process_command",
+        "gravity, inverse dynamics and residual for every sample of a bag or CSV file",
+    ),
+    "play": (
+        "baxter_dynamics_ros.play_command",
+        "publish a bag's JointState topics and /clock for a node running on use_sim_time",
+    ),
+    "simulate": (
+        "baxter_dynamics_ros.simulate_command",
+        "simulate a Baxter recording with known unmodelled effects (mcap or CSV, ground truth as JSON)",
+    ),
+    "diagnose": (
+        "baxter_dynamics_ros.diagnose_command",
+        "where the sim-to-real gap lies, which unmodelled effect causes it, how far it shrinks (held-out)",
+    ),
+    "paper-experiment": (
+        "baxter_dynamics_ros.paper_experiment",
+        "the paper's experiment (Table V, Figs. 5-7) on simulated recordings: L-E and Pinocchio RNEA against the recorded torques",
+    ),
+}
+
+
+def _parser(argv: Sequence[str]) -> argparse.ArgumentParser:
+    """The top-level parser; only the chosen command's module is imported to add its options."""
+    parser = argparse.ArgumentParser(
+        prog="baxter-dynamics",
+        description="Baxter arm dynamics: offline processing, playback into the live node.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    chosen = next((a for a in argv if not a.startswith("-")), None)
+    for name, (module_name, help_text) in COMMANDS.items():
+        command_parser = sub.add_parser(name, help=help_text, description=help_text)
+        if name == chosen:
+            importlib.import_module(module_name).add_arguments(command_parser)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run ``baxter-dynamics`` with argv (default: sys.argv[1:]); returns the exit status."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = _parser(argv).parse_args(argv)
+    module = importlib.import_module(COMMANDS[args.command][0])
+    try:
+        return int(module.run(args))
+    except BaxterDynamicsError as err:
+        print(f"ERROR: {err}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("ERROR: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,110 @@
+"""``baxter-dynamics diagnose --train FILES... [--test FILES...] --out DIR``: the gap diagnosis.
+
+Parameters are fitted on ``--train`` only; every "after" figure is measured on ``--test``. Without
+``--test``, the last training file is held out (or, with a single file, its last quarter: whole
+contiguous blocks, never interleaved samples). Writes ``DIR/diagnosis.json``, ``DIR/report.html``
+with its PNG plots and ``DIR/effects.yaml`` (for the node's ``effects_file``). Never imports rclpy.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from .errors import DiagnosisError, RecordingFileError
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The command's options."""
+    from msg_adapters.bag_io import DEFAULT_TOPIC
+    from msg_adapters.csv_io import DEFAULT_RATE_HZ
+
+    parser.add_argument("--train", type=Path, nargs="+", required=True, metavar="FILE", help="recordings to fit on (bags or tables)")
+    parser.add_argument("--test", type=Path, nargs="+", default=[], metavar="FILE", help="held-out recordings to measure on")
+    parser.add_argument("--out", "-o", type=Path, required=True, metavar="DIR", help="output folder (created)")
+    parser.add_argument("--arm", choices=("right", "left"), help="arm to diagnose (default: from the joint names)")
+    parser.add_argument("--model", type=Path, metavar="YAML", help="arm model file (default: the package's model of the arm)")
+    parser.add_argument("--topic", default=DEFAULT_TOPIC, help=f"joint-state topic of bags (default {DEFAULT_TOPIC})")
+    parser.add_argument("--rate", type=float, default=DEFAULT_RATE_HZ, help=f"sample rate of tables without time column, Hz (default {DEFAULT_RATE_HZ:g})")
+    parser.add_argument("--force", action="store_true", help="replace the outputs of an earlier diagnosis in DIR")
+    parser.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None, help="progress bar on stderr (default: when stderr is a terminal)")
+
+
+def _check_paths(inputs: list[Path], out: Path, force: bool) -> None:
+    from .diagnosis_report import OUTPUT_FILES
+
+    for path in inputs:
+        if not path.exists():
+            raise RecordingFileError(f"{path}: no such file or folder")
+    targets = {(out / name).resolve() for name in OUTPUT_FILES}
+    for path in inputs:
+        if path.resolve() in targets or path.resolve() == out.resolve():
+            raise DiagnosisError(f"{out}: refusing to write over the input {path}; choose another --out")
+    existing = [name for name in OUTPUT_FILES if (out / name).exists()]
+    if existing and not force:
+        raise DiagnosisError(f"{out}: holds an earlier diagnosis ({', '.join(existing)}); pass --force to replace it")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Diagnose and write the outputs; returns 0 (errors raise BaxterDynamicsError)."""
+    from msg_adapters.recording_files import read_recording
+
+    from .arm_model import load_arm_model
+    from .diagnosis import diagnose
+    from .diagnosis_report import write_diagnosis
+    from .progress import ProgressBar
+
+    _check_paths([*args.train, *args.test], args.out, args.force)
+    show = sys.stderr.isatty() if args.progress is None else args.progress
+
+    def read(path: Path):
+        return str(path), read_recording(path, topic=args.topic, arm=args.arm, rate_hz=args.rate)
+
+    train = [read(p) for p in args.train]
+    test = [read(p) for p in args.test]
+    sides = {rec.side for _, rec in (*train, *test)}
+    if len(sides) > 1:
+        raise DiagnosisError("the recordings are of different arms; pass --arm right|left")
+    if not test:
+        if len(train) > 1:
+            test = [train.pop()]
+        else:
+            label, rec = train[0]
+            train, test = _split_last_quarter(label, rec)
+    arm = load_arm_model(args.model if args.model is not None else sides.pop())
+    bar = ProgressBar("diagnosis", show)
+    try:
+        result = diagnose(arm, train, test, progress=bar)
+    finally:
+        bar.close()
+    paths = write_diagnosis(result, args.out)
+    print(_summary(result))
+    print(f"report: {paths['report.html']}")
+    return 0
+
+
+def _split_last_quarter(label, rec):
+    from .recording import Recording
+
+    n = len(rec)
+    cut = (3 * n) // 4
+    if n - cut < 200:
+        raise DiagnosisError(f"{label}: {n} samples are too few to hold out a block; give --test data")
+
+    def part(a: int, b: int) -> Recording:
+        return Recording(rec.side, rec.joint_names, rec.stamps_ns[a:b], rec.q[a:b], rec.qd[a:b], rec.effort[a:b])
+
+    return [(f"{label}[0:{cut}]", part(0, cut))], [(f"{label}[{cut}:{n}]", part(cut, n))]
+
+
+def _summary(result) -> str:
+    """A few lines for the terminal: where the gap is, what explains it, how far it shrinks."""
+    joints = [n.split("_", 1)[-1] for n in result.joint_names]
+    lines = [
+        "held-out RMS per joint [N·m]: " + "  ".join(joints),
+        "  rigid model (raw q̈) " + "  ".join(f"{v:6.3f}" for v in result.baseline_test_rms),
+        "  with effects        " + "  ".join(f"{v:6.3f}" for v in result.final_test_rms),
+        "selected effects: " + (", ".join(e.name for e in result.selected()) or "none"),
+    ]
+    return "\n".join(lines)

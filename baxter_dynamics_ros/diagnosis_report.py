@@ -1,0 +1,190 @@
+"""The diagnosis written out: diagnosis.json, effects.yaml and report.html with its PNG plots.
+
+The report opens offline: plots are PNG files beside it (and embedded as data URIs, so the HTML
+alone is enough), no script, no CDN.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from .diagnosis import DiagnosisResult
+from .effects import effects_to_dict
+
+__all__ = ["write_diagnosis"]
+
+OUTPUT_FILES = ("diagnosis.json", "effects.yaml", "report.html", "residual_over_time.png", "regimes.png", "before_after.png")
+
+
+def _short(names: tuple[str, ...]) -> list[str]:
+    return [n.split("_", 1)[-1] for n in names]
+
+
+def _plot_residuals(result: DiagnosisResult, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    s = result.test_series
+    fig, axes = plt.subplots(7, 1, figsize=(11, 13), sharex=True)
+    for j, ax in enumerate(axes):
+        ax.plot(s["t_s"], s["baseline"][:, j], lw=0.6, color="0.6", label="rigid model, raw q̈")
+        ax.plot(s["t_s"], s["filtered"][:, j], lw=0.8, color="tab:blue", label="rigid model, filtered q̈")
+        ax.plot(s["t_s"], s["final"][:, j], lw=0.8, color="tab:red", label="with the selected effects")
+        ax.set_ylabel(f"{_short(result.joint_names)[j]}\nN·m")
+        ax.grid(alpha=0.3)
+    axes[0].legend(loc="upper right", fontsize=8, ncol=3)
+    axes[0].set_title("Residual (measured effort − model) on the held-out test data")
+    axes[-1].set_xlabel("time [s]")
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+
+
+def _plot_regimes(result: DiagnosisResult, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    summary = result.gap_filtered
+    bands = summary.bands
+    regimes = list(dict.fromkeys(b.regime for b in bands))
+    fig, axes = plt.subplots(len(regimes), 1, figsize=(11, 2.4 * len(regimes)))
+    joints = _short(result.joint_names)
+    x = np.arange(len(joints))
+    for ax, regime in zip(np.atleast_1d(axes), regimes):
+        members = [b for b in bands if b.regime == regime]
+        width = 0.8 / len(members)
+        for k, band in enumerate(members):
+            ax.bar(x + k * width - 0.4 + width / 2, np.nan_to_num(band.rms / summary.rms), width, label=band.label)
+        ax.axhline(1.0, color="0.3", lw=0.8)
+        ax.set_xticks(x, joints)
+        ax.set_ylabel("RMS / joint's RMS")
+        ax.set_title(f"Residual RMS by {regime.replace('_', ' ')}, relative to each joint's overall RMS (rigid model, filtered q̈, test data)", fontsize=9)
+        ax.legend(fontsize=7, ncol=min(len(members), 5))
+        ax.grid(axis="y", alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+
+
+def _plot_before_after(result: DiagnosisResult, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    joints = _short(result.joint_names)
+    x = np.arange(len(joints))
+    steps = [("rigid model (raw q̈)", result.baseline_test_rms)] + [
+        (f"+ {e.name}", e.test_rms_after) for e in result.selected()
+    ]
+    fig, ax = plt.subplots(figsize=(11, 4))
+    width = 0.8 / len(steps)
+    for k, (label, rms) in enumerate(steps):
+        ax.bar(x + k * width - 0.4 + width / 2, rms, width, label=label)
+    ax.set_yscale("log")
+    ax.set_xticks(x, joints)
+    ax.set_ylabel("held-out RMS [N·m]")
+    ax.set_title("Held-out residual RMS per joint as the selected effects are added")
+    ax.legend(fontsize=8)
+    ax.grid(axis="y", alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+
+
+def _img(path: Path, alt: str) -> str:
+    data = base64.b64encode(path.read_bytes()).decode("ascii")
+    return f'<figure><img alt="{html.escape(alt)}" src="data:image/png;base64,{data}"><figcaption>{html.escape(alt)} ({path.name})</figcaption></figure>'
+
+
+def _table(head: list[str], rows: list[list[str]]) -> str:
+    th = "".join(f"<th>{html.escape(h)}</th>" for h in head)
+    body = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in row) + "</tr>" for row in rows)
+    return f"<table><thead><tr>{th}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def _html(result: DiagnosisResult, plots: dict[str, Path]) -> str:
+    joints = _short(result.joint_names)
+    base, final = result.baseline_test_rms, result.final_test_rms
+    gap = result.gap
+    where = _table(
+        ["joint", "RMS [N·m]", "mean [N·m]", "share of gap", "systematic (< 2 Hz) RMS", "high-frequency RMS", "RMS with filtered q̈"],
+        [
+            [j, f"{gap.rms[k]:.3f}", f"{gap.mean[k]:+.3f}", f"{gap.share[k]:.1%}", f"{gap.systematic_rms[k]:.3f}", f"{gap.noise_rms[k]:.3f}", f"{result.gap_filtered.rms[k]:.3f}"]
+            for k, j in enumerate(joints)
+        ],
+    )
+    effect_rows = []
+    for e in result.effects:
+        params = ", ".join(
+            f"{k} = {v:.4g}" + (f" ± {e.params_std[k]:.2g}" if k in e.params_std and np.isfinite(e.params_std[k]) else "")
+            for k, v in e.params.items()
+            if abs(v) > 0 or k in ("cutoff_hz",)
+        )
+        effect_rows.append(
+            [str(e.rank), e.name, "yes" if e.selected else "no", e.variant, ", ".join(_short(e.joints)), f"{e.cv_gain:.4g}", params or "—", e.reason]
+        )
+    effects = _table(["rank", "effect", "selected", "variant", "joints", "CV gain [N·m² / sample]", "fitted parameters (± jackknife SD)", "why"], effect_rows)
+    shrink_rows = [["rigid model, raw q̈"] + [f"{v:.3f}" for v in base] + ["—"]]
+    for e in result.selected():
+        shrink_rows.append([f"+ {e.name}"] + [f"{a:.3f} ({(a - b) / b:+.0%})" for a, b in zip(e.test_rms_after, e.test_rms_before)] + [f"{np.sum(e.test_rms_before**2) - np.sum(e.test_rms_after**2):.4g}"])
+    shrink_rows.append(["final vs rigid model"] + [f"{a:.3f} ({(a - b) / b:+.0%})" for a, b in zip(final, base)] + ["—"])
+    shrink = _table(["model", *joints, "Σ MSE removed [N·m²]"], shrink_rows)
+    style = "body{font-family:sans-serif;max-width:1200px;margin:2em auto;}table{border-collapse:collapse;margin:1em 0;font-size:90%}td,th{border:1px solid #bbb;padding:3px 6px;text-align:right}td:nth-child(2),th{text-align:left}img{max-width:100%}"
+    files = lambda xs: ", ".join(html.escape(x) for x in xs)  # noqa: E731
+    return f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>Baxter gap diagnosis</title><style>{style}</style></head><body>
+<h1>Sim-to-real gap diagnosis — {html.escape(result.arm_side)} arm</h1>
+<p>Fitted on: {files(result.train_files)} (cross-validation: {html.escape(result.holdout)}).<br>
+Measured on held-out data: {files(result.test_files)}. No parameter below was fitted on it.</p>
+<h2>Where the gap lies</h2>
+<p>Residual = measured effort − rigid-body model with the paper's q̈ (first difference of q̇), on the test data.
+The systematic part is what a zero-phase 2 Hz low-pass keeps; the rest is noise, mostly of the
+differentiated q̈ (last column: the RMS once q̇ is low-passed at {result.cutoff_hz:g} Hz before differentiating).</p>
+{where}
+{_img(plots["regimes.png"], "Residual RMS per joint by motion regime and configuration")}
+<h2>Which effects cause it</h2>
+<p>Forward selection over the candidate effects, each fitted on the training data only and scored
+by cross-validation; ranked by the held-out squared error each removes (mean per sample, summed over joints).</p>
+{effects}
+<h2>How far it shrinks (held-out test data)</h2>
+{shrink}
+{_img(plots["before_after.png"], "Held-out RMS per joint, before and after each selected effect")}
+{_img(plots["residual_over_time.png"], "Residual over time on the test data")}
+</body></html>
+"""
+
+
+def write_diagnosis(result: DiagnosisResult, out_dir: str | os.PathLike[str]) -> dict[str, Path]:
+    """Write every output file into out_dir (created if needed); returns them by name."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = {name: out / name for name in OUTPUT_FILES}
+    paths["diagnosis.json"].write_text(json.dumps(result.to_dict(), indent=2), encoding="utf-8")
+    exported = tuple(e.effect for e in result.selected() if e.effect is not None)
+    doc = {
+        "arm": result.arm_side,
+        "source": "baxter-dynamics diagnose",
+        "effects": effects_to_dict(exported),
+    }
+    paths["effects.yaml"].write_text(
+        "# Effects identified by `baxter-dynamics diagnose`; load into the node with -p effects_file:=<this file>.\n"
+        + yaml.safe_dump(doc, sort_keys=False),
+        encoding="utf-8",
+    )
+    _plot_residuals(result, paths["residual_over_time.png"])
+    _plot_regimes(result, paths["regimes.png"])
+    _plot_before_after(result, paths["before_after.png"])
+    paths["report.html"].write_text(_html(result, paths), encoding="utf-8")
+    return paths

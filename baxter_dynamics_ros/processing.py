@@ -1,0 +1,83 @@
+"""Offline processing of a recording: q̈, gravity, inverse dynamics and residual for every sample.
+
+The same quantities as the live node, for a whole :class:`~baxter_dynamics_ros.recording.Recording`
+at once. q̈ comes from one of the estimators of :mod:`baxter_dynamics_ros.acceleration`:
+
+- ``zero_phase`` (default offline): Butterworth forwards and backwards on q̇, then central
+  differences; no delay, uses future samples.
+- ``lowpass``: the live node's causal estimator, run over the stamps exactly as the node sees them
+  (so ``process`` and the node agree sample by sample).
+- ``first_difference``: the paper's raw difference, for comparison with its results.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .acceleration import LowPassDifferentiator, first_difference, zero_phase_acceleration
+from .arm_model import ArmModel
+from .errors import RecordingError
+from .recording import Recording
+
+__all__ = ["ACCELERATION_METHODS", "ProcessedRecording", "estimate_acceleration", "process_recording"]
+
+#: Estimator name -> its default cutoff in Hz (None: the estimator has no filter).
+ACCELERATION_METHODS: dict[str, float | None] = {"zero_phase": 5.0, "lowpass": 10.0, "first_difference": None}
+
+
+@dataclass(frozen=True)
+class ProcessedRecording:
+    """A recording with the model's torques, all (N, 7), sample k of each array at stamps_ns[k].
+
+    qdd: estimated q̈, rad/s²; gravity: G(q) of eq. (8), N·m; inverse_dynamics: τ = M q̈ + C + G of
+    eq. (1), N·m; residual: recorded effort − τ, N·m (what the rigid-body model leaves unexplained).
+    """
+
+    recording: Recording
+    qdd: np.ndarray
+    gravity: np.ndarray
+    inverse_dynamics: np.ndarray
+    residual: np.ndarray
+
+    def torques(self) -> dict[str, np.ndarray]:
+        """The three computed torques by name: gravity, inverse_dynamics, residual, each (N, 7) N·m."""
+        return {"gravity": self.gravity, "inverse_dynamics": self.inverse_dynamics, "residual": self.residual}
+
+
+def estimate_acceleration(recording: Recording, method: str = "zero_phase", cutoff_hz: float | None = None) -> np.ndarray:
+    """q̈ (N, 7) rad/s² of a recording by ``method`` (see the module docstring).
+
+    cutoff_hz: the filter's cutoff in Hz; None takes the method's default from
+    :data:`ACCELERATION_METHODS`. first_difference has no filter and accepts no cutoff.
+    """
+    if method not in ACCELERATION_METHODS:
+        raise RecordingError(f"acceleration method must be one of {', '.join(ACCELERATION_METHODS)}, got {method!r}")
+    if method == "first_difference":
+        if cutoff_hz is not None:
+            raise RecordingError("first_difference has no filter: leave the cutoff unset")
+        return first_difference(recording.qd, recording.stamps_s)
+    if cutoff_hz is None:
+        cutoff_hz = ACCELERATION_METHODS[method]
+    try:
+        if method == "zero_phase":
+            return zero_phase_acceleration(recording.qd, recording.rate_hz, cutoff_hz)
+        return LowPassDifferentiator(cutoff_hz).run(recording.qd, recording.stamps_s)
+    except ValueError as err:  # the estimators' own checks (cutoff range)
+        raise RecordingError(f"cannot estimate q̈ by {method} on this recording: {err}") from err
+
+
+def process_recording(
+    arm: ArmModel, recording: Recording, *, acceleration: str = "zero_phase", cutoff_hz: float | None = None
+) -> ProcessedRecording:
+    """Gravity, inverse dynamics and residual of every sample of ``recording`` with ``arm``'s model."""
+    if arm.side != recording.side or tuple(arm.joint_names) != recording.joint_names:
+        raise RecordingError(
+            f"the recording is of the {recording.side} arm but the model is of the {arm.side} arm; "
+            f"load the {recording.side} model or choose the arm with --arm"
+        )
+    qdd = estimate_acceleration(recording, acceleration, cutoff_hz)
+    gravity = arm.gravity(recording.q)
+    tau = arm.inverse_dynamics(recording.q, recording.qd, qdd)
+    return ProcessedRecording(recording, qdd, gravity, tau, recording.effort - tau)

@@ -1,0 +1,121 @@
+"""A recording of one arm: joint states over time, as read from a bag or CSV file.
+
+:class:`Recording` is the core's data container between the file readers of ``msg_adapters/``
+and the computations: immutable, validated once when it is made, numpy only.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import RecordingError
+
+__all__ = ["ARM_SIDES", "JOINT_SUFFIXES", "Recording", "arm_joint_names", "detect_arm"]
+
+#: The arms, by the prefix of their joint names.
+ARM_SIDES = ("right", "left")
+#: Joint order of the model (shoulder s0 s1, elbow e0 e1, wrist w0 w1 w2), as in config/*.yaml.
+JOINT_SUFFIXES = ("s0", "s1", "e0", "e1", "w0", "w1", "w2")
+
+
+def arm_joint_names(side: str) -> tuple[str, ...]:
+    """The 7 joint names of ``side`` ("right" or "left") in model order, e.g. ``right_s0``."""
+    if side not in ARM_SIDES:
+        raise RecordingError(f"arm must be 'right' or 'left', got {side!r}")
+    return tuple(f"{side}_{suffix}" for suffix in JOINT_SUFFIXES)
+
+
+def detect_arm(names: Sequence[str], q_range_rad: dict[str, float] | None = None) -> str:
+    """The arm whose 7 joints are all in ``names``.
+
+    When both arms are there (Baxter's /robot/joint_states carries both), the one that moves more
+    is chosen: ``q_range_rad`` maps each side to the summed range (max − min) of its joint angles
+    over the recording. Raises :class:`RecordingError` when neither arm is complete or the choice
+    is a tie.
+    """
+    present = set(names)
+    sides = [side for side in ARM_SIDES if present.issuperset(arm_joint_names(side))]
+    if not sides:
+        shown = ", ".join(sorted(present)) or "none"
+        raise RecordingError(
+            f"no arm has all 7 joints (right_s0..right_w2 or left_s0..left_w2); joint names found: {shown}"
+        )
+    if len(sides) == 1:
+        return sides[0]
+    ranges = q_range_rad or {}
+    right, left = ranges.get("right", 0.0), ranges.get("left", 0.0)
+    if right == left:
+        raise RecordingError("both arms are recorded and move alike; choose one with --arm right|left")
+    return "right" if right > left else "left"
+
+
+@dataclass(frozen=True)
+class Recording:
+    """Joint states of one arm, sample by sample.
+
+    joint_names (7,) in model order; stamps_ns (N,) int64 strictly increasing, ns; q (N, 7) rad,
+    qd (N, 7) rad/s, effort (N, 7) N·m (the torques the robot reported); side "right" or "left".
+    Arrays are read-only copies; construction checks shapes, order and finiteness.
+    """
+
+    side: str
+    joint_names: tuple[str, ...]
+    stamps_ns: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    effort: np.ndarray
+
+    def __post_init__(self) -> None:
+        names = tuple(self.joint_names)
+        if names != arm_joint_names(self.side):
+            raise RecordingError(
+                f"joint_names must be the {self.side} arm's {arm_joint_names(self.side)}, got {names}"
+            )
+        object.__setattr__(self, "joint_names", names)
+        stamps = np.array(self.stamps_ns, dtype=np.int64)
+        if stamps.ndim != 1 or len(stamps) < 2:
+            raise RecordingError(f"stamps_ns must be (N,) with N >= 2 samples, got shape {stamps.shape}")
+        n = len(stamps)
+        steps = np.diff(stamps)
+        if np.any(steps <= 0):
+            k = int(np.argmax(steps <= 0))
+            raise RecordingError(
+                f"stamps_ns must increase strictly; sample {k + 1} of {n} is at {stamps[k + 1]} ns "
+                f"after {stamps[k]} ns ({int(np.sum(steps <= 0))} such steps)"
+            )
+        stamps.flags.writeable = False
+        object.__setattr__(self, "stamps_ns", stamps)
+        for field_name in ("q", "qd", "effort"):
+            arr = np.array(getattr(self, field_name), dtype=np.float64)
+            if arr.shape != (n, 7):
+                raise RecordingError(f"{field_name} must be ({n}, 7) like stamps_ns, got {arr.shape}")
+            bad = ~np.isfinite(arr)
+            if bad.any():
+                k, j = (int(i) for i in np.argwhere(bad)[0])
+                raise RecordingError(
+                    f"{field_name} has {int(bad.sum())} non-finite values, the first at sample {k} "
+                    f"joint {names[j]} ({arr[k, j]})"
+                )
+            arr.flags.writeable = False
+            object.__setattr__(self, field_name, arr)
+
+    def __len__(self) -> int:
+        return len(self.stamps_ns)
+
+    @property
+    def stamps_s(self) -> np.ndarray:
+        """(N,) seconds since the first sample (float, for filters and plots)."""
+        return (self.stamps_ns - self.stamps_ns[0]) * 1e-9
+
+    @property
+    def rate_hz(self) -> float:
+        """The median sample rate in Hz."""
+        return 1e9 / float(np.median(np.diff(self.stamps_ns)))
+
+    @property
+    def duration_s(self) -> float:
+        """Time from the first to the last sample, s."""
+        return (int(self.stamps_ns[-1]) - int(self.stamps_ns[0])) * 1e-9

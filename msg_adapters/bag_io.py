@@ -1,0 +1,247 @@
+"""ROS 1 and ROS 2 bags in and out, through rosbags.
+
+Reading: a ROS 1 ``.bag`` file, a ROS 2 bag directory (sqlite3 or mcap) or a single ``.mcap`` /
+``.db3`` file. Joint states are ``sensor_msgs/JointState`` or ``baxter_core_msgs/SEAJointState``
+(its ``actual_*`` arrays) on any topic, default ``/robot/joint_states``. Joints are matched by name:
+a message may carry any superset of the arm's joints in any order; messages lacking one of them,
+or an empty velocity/effort array, are skipped. Sample times are the header stamps (the bag's
+receive times when every header stamp is zero).
+
+Writing: JointState topics sharing their stamps as a ROS 2 bag in one mcap file
+(:mod:`msg_adapters.mcap_writer`); a processed recording as the live node's topics
+(:data:`RESULT_TOPICS`: sensor_msgs/msg/JointState with the arm's 7 joints, header stamp of the
+input sample, position and velocity copied from it, effort = the torque) plus the arm's input
+joint states on the input topic, so that the output plays back like the input.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from rosbags.highlevel import AnyReader
+
+from baxter_dynamics_ros.errors import RecordingFileError
+from baxter_dynamics_ros.processing import ProcessedRecording
+from baxter_dynamics_ros.recording import ARM_SIDES, Recording, arm_joint_names, detect_arm
+
+from .mcap_writer import write_mcap
+from .serialized_joint_states import (
+    JOINT_ARRAYS,
+    JOINT_STATE,
+    JointStateBlock,
+    decode_joint_states,
+    encode_joint_states,
+    typestore,
+)
+
+__all__ = [
+    "DEFAULT_TOPIC",
+    "RESULT_TOPICS",
+    "read_bag_recording",
+    "read_joint_state_messages",
+    "write_joint_state_bag",
+    "write_processed_bag",
+]
+
+DEFAULT_TOPIC = "/robot/joint_states"
+#: ProcessedRecording field -> output topic, as the live node publishes them.
+RESULT_TOPICS = {
+    "gravity": "/baxter_dynamics/gravity",
+    "inverse_dynamics": "/baxter_dynamics/inverse_dynamics",
+    "residual": "/baxter_dynamics/residual",
+}
+#: How often (in messages) reading reports progress.
+PROGRESS_EVERY = 20_000
+
+Progress = Callable[[int, int], None]  # (messages done, messages in total)
+
+
+@dataclass(frozen=True)
+class _TopicData:
+    """The messages of one topic: their bag receive times (n,) ns, and the blocks they decode into."""
+
+    topic: str
+    log_times_ns: np.ndarray
+    blocks: list[JointStateBlock]
+
+
+def _is_ros1(path: Path) -> bool:
+    return path.suffix == ".bag"
+
+
+def _read_topics(path: Path, topics: Sequence[str] | None, progress: Progress | None) -> list[_TopicData]:
+    """Decode every JointState-like message on ``topics`` (None: every such topic) of a bag."""
+    if not path.exists():
+        raise RecordingFileError(f"{path}: no such file or directory")
+    ros1 = _is_ros1(path)
+    raws: dict[str, list[bytes]] = {}
+    log_times: dict[str, list[int]] = {}
+    # rosbags raises many exception types on damaged files (its own errors, struct, sqlite3, zstd,
+    # EOF, Unicode...): all of them mean the same thing to the user, so they are translated here.
+    try:
+        with AnyReader([path], default_typestore=typestore(ros1)) as reader:
+            connections = _select_connections(path, reader.connections, topics)
+            msgtypes = {c.topic: c.msgtype for c in connections}
+            total = sum(c.msgcount for c in connections)
+            for topic in msgtypes:
+                raws[topic], log_times[topic] = [], []
+            for done, (connection, log_time_ns, raw) in enumerate(reader.messages(connections=connections), 1):
+                raws[connection.topic].append(raw)
+                log_times[connection.topic].append(log_time_ns)
+                if progress is not None and done % PROGRESS_EVERY == 0:
+                    progress(done, total)
+            store = reader.typestore
+    except RecordingFileError:
+        raise
+    except Exception as err:  # noqa: BLE001 - see the comment above
+        raise _corrupt(path, err) from err
+    if progress is not None:
+        progress(total, total)
+    deserialize = store.deserialize_ros1 if ros1 else store.deserialize_cdr
+    result = []
+    for topic, msgtype in msgtypes.items():
+
+        def decode(raw: bytes, msgtype: str = msgtype) -> object:
+            try:
+                return deserialize(raw, msgtype)
+            except Exception as err:  # noqa: BLE001 - a damaged message, whatever the error type
+                raise _corrupt(path, err) from err
+
+        blocks = decode_joint_states(raws[topic], msgtype, ros1, decode)
+        result.append(_TopicData(topic, np.array(log_times[topic], dtype=np.int64), blocks))
+    return result
+
+
+def _corrupt(path: Path, err: Exception) -> RecordingFileError:
+    return RecordingFileError(f"{path}: cannot read the bag, it is corrupt or truncated ({type(err).__name__}: {err})")
+
+
+def _select_connections(path: Path, connections: list, topics: Sequence[str] | None) -> list:
+    """The connections of the requested topics, each checked to carry a joint-state type."""
+    by_topic = {c.topic: c.msgtype for c in connections}
+    usable = sorted(t for t, m in by_topic.items() if m in JOINT_ARRAYS)
+    if topics is None:
+        topics = usable
+        if not topics:
+            raise RecordingFileError(f"{path}: no JointState or SEAJointState topic in this bag")
+    for topic in topics:
+        if topic not in by_topic:
+            raise RecordingFileError(
+                f"{path}: no topic {topic}; joint-state topics in this bag: {', '.join(usable) or 'none'}"
+            )
+        if by_topic[topic] not in JOINT_ARRAYS:
+            raise RecordingFileError(
+                f"{path}: topic {topic} carries {by_topic[topic]}, not sensor_msgs/JointState or "
+                f"baxter_core_msgs/SEAJointState; joint-state topics: {', '.join(usable) or 'none'}"
+            )
+    return [c for c in connections if c.topic in topics]
+
+
+def read_bag_recording(
+    path: str | os.PathLike[str],
+    *,
+    topic: str = DEFAULT_TOPIC,
+    arm: str | None = None,
+    progress: Progress | None = None,
+) -> Recording:
+    """The recording of one arm from the joint states on ``topic`` of a bag.
+
+    arm: "right" or "left"; None detects it from the joint names (when both arms are recorded,
+    the one that moves more; see :func:`~baxter_dynamics_ros.recording.detect_arm`).
+    progress: called as progress(messages read, total) while reading.
+    """
+    path = Path(path)
+    (data,) = _read_topics(path, [topic], progress)
+    complete = [b for b in data.blocks if b.position is not None and b.velocity is not None and b.effort is not None]
+    if arm is None:
+        names = {name for b in complete for name in b.names}
+        arm = detect_arm(sorted(names), {side: _q_range(complete, side) for side in ARM_SIDES})
+    joints = arm_joint_names(arm)
+    chosen = [b for b in complete if set(joints) <= set(b.names)]
+    if not chosen:
+        seen = sorted({name for b in data.blocks for name in b.names})
+        raise RecordingFileError(
+            f"{path}: no message on {topic} has position, velocity and effort of all 7 {arm} arm joints "
+            f"({', '.join(joints)}); joint names found: {', '.join(seen) or 'none'}"
+        )
+    index = np.concatenate([b.index for b in chosen])
+    order = np.argsort(index, kind="stable")
+    stamps_ns = np.concatenate([b.stamps_ns for b in chosen])[order]
+    if not stamps_ns.any():
+        stamps_ns = data.log_times_ns[index[order]]
+    q, qd, effort = (
+        np.concatenate([_columns(getattr(b, f), b.names, joints) for b in chosen])[order]
+        for f in ("position", "velocity", "effort")
+    )
+    return Recording(arm, joints, stamps_ns, q, qd, effort)
+
+
+def _columns(values: np.ndarray, names: tuple[str, ...], joints: Sequence[str]) -> np.ndarray:
+    """The columns of values (n, m) named ``joints`` (7,), in that order: (n, 7)."""
+    where = {name: k for k, name in enumerate(names)}
+    return values[:, [where[j] for j in joints]]
+
+
+def _q_range(blocks: list[JointStateBlock], side: str) -> float:
+    """Summed range (max − min) of the side's joint angles over the blocks that carry them, rad."""
+    joints = arm_joint_names(side)
+    q = [_columns(b.position, b.names, joints) for b in blocks if set(joints) <= set(b.names)]
+    if not q:
+        return 0.0
+    stacked = np.concatenate(q)
+    return float(np.sum(stacked.max(axis=0) - stacked.min(axis=0)))
+
+
+def read_joint_state_messages(
+    path: str | os.PathLike[str], topics: Sequence[str] | None = None, progress: Progress | None = None
+) -> list[tuple[int, str, bytes]]:
+    """Every joint-state message of a bag as ROS 2 ``sensor_msgs/msg/JointState`` CDR bytes.
+
+    Returns (receive time ns, topic, bytes) sorted by receive time, for playback. topics: None for
+    every JointState / SEAJointState topic. SEAJointState becomes JointState with its actual_*
+    arrays; frame_id is dropped.
+    """
+    messages: list[tuple[int, str, bytes]] = []
+    for data in _read_topics(Path(path), topics, progress):
+        for block in data.blocks:
+            rows = encode_joint_states(block.stamps_ns, block.names, block.position, block.velocity, block.effort)
+            times = data.log_times_ns[block.index]
+            messages.extend(zip(times.tolist(), [data.topic] * len(rows), map(bytes, rows)))
+    messages.sort(key=lambda m: m[0])
+    return messages
+
+
+def write_joint_state_bag(
+    path: str | os.PathLike[str],
+    stamps_ns: np.ndarray,
+    topics: dict[str, tuple[Sequence[str], np.ndarray | None, np.ndarray | None, np.ndarray | None]],
+) -> None:
+    """Write sensor_msgs/msg/JointState topics as a ROS 2 bag in one mcap file at ``path`` (new).
+
+    stamps_ns (N,) strictly increasing: header stamp and log time of sample k on every topic;
+    topics: {topic: (names (m,), position, velocity, effort)}, arrays (N, m) or None for empty.
+    """
+    definition, _ = typestore(ros1=False).generate_msgdef(JOINT_STATE, ros_version=2)
+    write_mcap(
+        path,
+        [(topic, JOINT_STATE, definition) for topic in topics],
+        stamps_ns,
+        [encode_joint_states(stamps_ns, *arrays) for arrays in topics.values()],
+    )
+
+
+def write_processed_bag(path: str | os.PathLike[str], processed: ProcessedRecording, input_topic: str = DEFAULT_TOPIC) -> None:
+    """Write a ROS 2 bag as one mcap file at ``path`` (which must not exist).
+
+    Topics: ``input_topic`` (the arm's joint states as read) and :data:`RESULT_TOPICS`; every
+    message is stamped and logged at its input sample's stamp.
+    """
+    rec = processed.recording
+    efforts = {input_topic: rec.effort, **{RESULT_TOPICS[k]: v for k, v in processed.torques().items()}}
+    write_joint_state_bag(
+        path, rec.stamps_ns, {topic: (rec.joint_names, rec.q, rec.qd, effort) for topic, effort in efforts.items()}
+    )

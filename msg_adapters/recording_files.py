@@ -1,0 +1,128 @@
+"""Which reader and writer a path calls for, and output written whole or not at all.
+
+Inputs: ``.csv``, ``.txt``, ``.parquet`` are tables (:mod:`msg_adapters.csv_io`); anything else
+is a bag (:mod:`msg_adapters.bag_io`: ``.bag``, a ROS 2 bag directory, ``.mcap``, ``.db3``).
+
+Outputs, by the path's extension:
+
+- ``.mcap``: one mcap file holding a ROS 2 bag (readable by rosbags, ``ros2 bag`` and Foxglove);
+- ``.csv`` / ``.parquet``: a table.
+
+Output is first written into a temporary folder beside its destination and renamed into place at
+the end, so a failure leaves nothing partial behind (and an existing output, replaced only on
+success).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+
+from baxter_dynamics_ros.errors import RecordingError, RecordingFileError
+from baxter_dynamics_ros.processing import ProcessedRecording
+from baxter_dynamics_ros.recording import Recording
+
+from .bag_io import DEFAULT_TOPIC, Progress, read_bag_recording, write_joint_state_bag, write_processed_bag
+from .csv_io import DEFAULT_RATE_HZ, joint_state_columns, read_table_recording, write_processed_table, write_table
+
+__all__ = ["OUTPUT_FORMATS", "check_output", "read_recording", "write_joint_states", "write_processed"]
+
+TABLE_SUFFIXES = (".csv", ".txt", ".parquet")
+#: Output extension -> format.
+OUTPUT_FORMATS = {".mcap": "mcap", ".csv": "csv", ".parquet": "parquet"}
+
+
+def read_recording(
+    path: str | os.PathLike[str],
+    *,
+    topic: str = DEFAULT_TOPIC,
+    arm: str | None = None,
+    rate_hz: float = DEFAULT_RATE_HZ,
+    progress: Progress | None = None,
+) -> Recording:
+    """One arm's recording from a bag (joint states on ``topic``) or a table (``rate_hz`` if untimed).
+
+    Raises RecordingFileError naming the path for anything wrong with the file's contents.
+    """
+    path = Path(path)
+    try:
+        if path.suffix in TABLE_SUFFIXES:
+            return read_table_recording(path, arm=arm, rate_hz=rate_hz)
+        return read_bag_recording(path, topic=topic, arm=arm, progress=progress)
+    except RecordingError as err:
+        raise RecordingFileError(f"{path}: {err}") from err
+
+
+def check_output(path: str | os.PathLike[str], replace: bool = False) -> str:
+    """The format :func:`write_processed` would write at ``path``, once checked that it may.
+
+    Refuses an unknown extension, a missing folder, a folder in the way, and an existing file
+    unless ``replace``.
+    """
+    path = Path(path)
+    if path.suffix not in OUTPUT_FORMATS:
+        raise RecordingFileError(f"{path}: unknown output type {path.suffix!r}; use .mcap (ROS 2 bag), .csv or .parquet")
+    if not path.parent.is_dir():
+        raise RecordingFileError(f"{path}: the folder {path.parent} does not exist")
+    if path.is_dir():
+        raise RecordingFileError(f"{path}: is a folder; not replacing it, choose another output")
+    if path.exists() and not replace:
+        raise RecordingFileError(f"{path}: exists already; choose another output or pass --force")
+    return OUTPUT_FORMATS[path.suffix]
+
+
+@contextmanager
+def _staged(path: Path) -> Iterator[Path]:
+    """A fresh path in a temporary folder beside ``path``, moved onto ``path`` if the block succeeds."""
+    folder = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent))
+    try:
+        staged = folder / path.name
+        yield staged
+        os.replace(staged, path)
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def write_processed(
+    path: str | os.PathLike[str], processed: ProcessedRecording, *, input_topic: str = DEFAULT_TOPIC, replace: bool = False
+) -> None:
+    """Write ``processed`` at ``path`` in the format its extension names (module docstring).
+
+    replace: overwrite an existing output file (only once the new one is complete).
+    """
+    path = Path(path)
+    fmt = check_output(path, replace)
+    with _staged(path) as staged:
+        if fmt == "mcap":
+            write_processed_bag(staged, processed, input_topic)
+        else:
+            write_processed_table(staged, processed, fmt)
+
+
+def write_joint_states(
+    path: str | os.PathLike[str],
+    stamps_ns: np.ndarray,
+    names: Sequence[str],
+    position: np.ndarray,
+    velocity: np.ndarray,
+    effort: np.ndarray,
+    *,
+    topic: str = DEFAULT_TOPIC,
+    replace: bool = False,
+) -> None:
+    """Write joint states (stamps_ns (N,), names (m,), arrays (N, m)) at ``path`` by its extension:
+    a ``.mcap`` bag with JointState on ``topic``, or a ``.csv`` / ``.parquet`` table (generic layout).
+    Whole or not at all, as :func:`write_processed`."""
+    path = Path(path)
+    fmt = check_output(path, replace)
+    with _staged(path) as staged:
+        if fmt == "mcap":
+            write_joint_state_bag(staged, stamps_ns, {topic: (names, position, velocity, effort)})
+        else:
+            write_table(staged, joint_state_columns(stamps_ns, names, position, velocity, effort), fmt)

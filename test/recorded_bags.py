@@ -1,0 +1,112 @@
+"""Bags for the tests, written the reference way: rosbags' own serializers and writers, message by message.
+
+The project reads them with its bulk decoder; writing them independently of it is what makes the
+reading tests a cross-check. Nothing here is project code.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from rosbags.rosbag1 import Writer as Writer1
+from rosbags.rosbag2 import StoragePlugin, Writer as Writer2
+
+from baxter_dynamics_ros.simulator import BAXTER_JOINT_NAMES as BAXTER_JOINTS  # the robot's names, in its order
+from msg_adapters.serialized_joint_states import JOINT_STATE, SEA_JOINT_STATE, typestore
+
+BAG_KINDS = ("ros1", "sqlite3", "mcap")
+START_NS = 1_700_000_000_123_456_789
+
+
+def joint_states(n: int, names: Sequence[str] = BAXTER_JOINTS, rate_hz: float = 100.0, seed: int = 0) -> dict:
+    """Smooth states of every joint in ``names`` at rate_hz: stamps_ns (n,), position/velocity/effort (n, m).
+
+    Right-arm joints swing more than the others (so the right arm is the one detected).
+    """
+    rng = np.random.default_rng(seed)
+    m = len(names)
+    t = np.arange(n) / rate_hz
+    freq = rng.uniform(0.2, 0.8, m)
+    amp = np.where([name.startswith("right_") for name in names], 0.6, 0.05)
+    phase = rng.uniform(0, 2 * np.pi, m)
+    arg = 2 * np.pi * np.outer(t, freq) + phase
+    return {
+        "stamps_ns": START_NS + np.round(t * 1e9).astype(np.int64),
+        "position": amp * np.sin(arg),
+        "velocity": amp * 2 * np.pi * freq * np.cos(arg),
+        "effort": rng.normal(0.0, 5.0, (n, m)),
+    }
+
+
+def message(kind: str, stamp_ns: int, names: Sequence[str], position, velocity, effort, *, sea: bool = False, frame_id: str = ""):
+    """A JointState (or SEAJointState with the values in its actual_* arrays) of the kind's typestore."""
+    store = typestore(ros1=kind == "ros1")
+    types = store.types
+    sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
+    header_fields = {"seq": 0} if kind == "ros1" else {}
+    header = types["std_msgs/msg/Header"](
+        **header_fields, stamp=types["builtin_interfaces/msg/Time"](sec=sec, nanosec=nanosec), frame_id=frame_id
+    )
+    arrays = [np.asarray(a, dtype=np.float64) for a in (position, velocity, effort)]
+    if not sea:
+        return types[JOINT_STATE](header=header, name=list(names), position=arrays[0], velocity=arrays[1], effort=arrays[2])
+    m = len(names)
+    decoy = np.full(m, 99.0)  # commanded and model arrays: must not be read
+    return types[SEA_JOINT_STATE](
+        header=header,
+        name=list(names),
+        commanded_position=decoy,
+        commanded_velocity=decoy,
+        commanded_effort=decoy,
+        actual_position=arrays[0],
+        actual_velocity=arrays[1],
+        actual_effort=arrays[2],
+        gravity_model_effort=decoy,
+        hysteresis_model_effort=decoy,
+        crosstalk_model_effort=decoy,
+        hystState=1.0,
+    )
+
+
+def bag_path(tmp_path: Path, kind: str, name: str = "recording") -> Path:
+    """Where a bag of ``kind`` goes: ``name.bag`` (ROS 1) or a ROS 2 bag folder ``name``."""
+    return tmp_path / (f"{name}.bag" if kind == "ros1" else name)
+
+
+def write_bag(path: Path, kind: str, topics: dict[str, list[tuple[int, object]]]) -> Path:
+    """Write {topic: [(receive time ns, message), ...]} as a bag of ``kind`` at path; returns path."""
+    store = typestore(ros1=kind == "ros1")
+    if kind == "ros1":
+        writer = Writer1(path)
+        serialize = store.serialize_ros1
+    else:
+        plugin = StoragePlugin.SQLITE3 if kind == "sqlite3" else StoragePlugin.MCAP
+        writer = Writer2(path, version=9, storage_plugin=plugin)
+        serialize = store.serialize_cdr
+    with writer:
+        for topic, items in topics.items():
+            msgtype = items[0][1].__msgtype__
+            connection = writer.add_connection(topic, msgtype, typestore=store)
+            for receive_ns, msg in items:
+                writer.write(connection, receive_ns, bytes(serialize(msg, msgtype)))
+    return path
+
+
+def write_reference_bag(path: Path, kind: str, states: dict, topic: str = "/robot/joint_states", **options) -> Path:
+    """A bag with the ``states`` of :func:`joint_states` on one topic, received at their stamps."""
+    names = options.pop("names", BAXTER_JOINTS)
+    msgs = [
+        (int(stamp), message(kind, stamp, names, p, v, e, **options))
+        for stamp, p, v, e in zip(states["stamps_ns"], states["position"], states["velocity"], states["effort"])
+    ]
+    return write_bag(path, kind, {topic: msgs})
+
+
+def bag_storage_file(path: Path) -> Path:
+    """The file holding a bag's messages: the .bag itself or the storage file in a ROS 2 folder."""
+    if path.is_file():
+        return path
+    (storage,) = [p for p in path.iterdir() if p.suffix in (".db3", ".mcap")]
+    return storage

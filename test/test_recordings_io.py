@@ -1,0 +1,341 @@
+"""Readers and writers of recordings: real bags and tables written into tmp_path and read back."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from recorded_bags import (
+    BAG_KINDS,
+    BAXTER_JOINTS,
+    START_NS,
+    bag_path,
+    bag_storage_file,
+    joint_states,
+    message,
+    write_bag,
+    write_reference_bag,
+)
+
+from baxter_dynamics_ros.errors import RecordingError, RecordingFileError
+from baxter_dynamics_ros.recording import Recording, arm_joint_names, detect_arm
+from msg_adapters.bag_io import read_bag_recording, read_joint_state_messages
+from msg_adapters.csv_io import read_table_recording
+from msg_adapters.mcap_writer import write_mcap
+from msg_adapters.recording_files import read_recording, write_joint_states
+from msg_adapters.serialized_joint_states import (
+    JOINT_STATE,
+    SEA_JOINT_STATE,
+    SEA_JOINT_STATE_MSG,
+    decode_joint_states,
+    encode_joint_states,
+    typestore,
+)
+
+REAL_DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "baxter_real"
+REAL_FILES = sorted(REAL_DATA.glob("*.csv")) if REAL_DATA.is_dir() else []
+N = 300
+
+
+def columns(states: dict, joints: tuple[str, ...], names: tuple[str, ...] = BAXTER_JOINTS) -> list[np.ndarray]:
+    """position, velocity, effort (n, 7) of ``joints`` from states over ``names``."""
+    where = [names.index(j) for j in joints]
+    return [states[k][:, where] for k in ("position", "velocity", "effort")]
+
+
+def assert_recording_is(rec: Recording, states: dict, side: str, names: tuple[str, ...] = BAXTER_JOINTS) -> None:
+    joints = arm_joint_names(side)
+    assert rec.side == side and rec.joint_names == joints
+    np.testing.assert_array_equal(rec.stamps_ns, states["stamps_ns"])
+    for got, want in zip((rec.q, rec.qd, rec.effort), columns(states, joints, names)):
+        np.testing.assert_array_equal(got, want)
+
+
+# --------------------------------------------------------------------------------------------- bags
+@pytest.mark.parametrize("kind", BAG_KINDS)
+def test_joint_state_bag_reads_back_exactly_with_the_moving_arm_detected(tmp_path: Path, kind: str) -> None:
+    states = joint_states(N)
+    path = write_reference_bag(bag_path(tmp_path, kind), kind, states)
+    assert_recording_is(read_bag_recording(path), states, "right")
+    assert_recording_is(read_bag_recording(path, arm="left"), states, "left")
+
+
+@pytest.mark.parametrize("kind", ["ros1", "mcap"])
+def test_sea_joint_state_reads_its_actual_arrays(tmp_path: Path, kind: str) -> None:
+    states = joint_states(N)
+    path = write_reference_bag(bag_path(tmp_path, kind), kind, states, topic="/robot/limb/right/gravity_compensation_torques", sea=True)
+    rec = read_bag_recording(path, topic="/robot/limb/right/gravity_compensation_torques")
+    assert_recording_is(rec, states, "right")
+
+
+def test_sea_joint_state_type_is_registered_from_its_definition_text() -> None:
+    reference = REAL_DATA.parent.parent / "reference" / "SEAJointState.msg"
+    if not reference.is_file():
+        pytest.skip(f"{reference} absent: cannot compare the embedded definition with the reference")
+    assert SEA_JOINT_STATE_MSG.strip() == reference.read_text().strip()
+    for ros1 in (True, False):
+        fields = [f[0] for f in typestore(ros1).fielddefs[SEA_JOINT_STATE][1]]
+        assert fields[:2] == ["header", "name"] and fields[4:7] == ["commanded_effort", "actual_position", "actual_velocity"]
+
+
+@pytest.mark.parametrize("kind", ["ros1", "mcap"])
+def test_messages_of_other_layouts_and_without_the_arm_are_handled_by_name(tmp_path: Path, kind: str) -> None:
+    """Shuffled names, other frame_ids, gripper-only messages: matched by name, skipped if incomplete."""
+    states = joint_states(N)
+    rng = np.random.default_rng(1)
+    msgs, kept = [], []
+    for k, stamp in enumerate(states["stamps_ns"]):
+        order = rng.permutation(len(BAXTER_JOINTS)) if k % 7 == 3 else np.arange(len(BAXTER_JOINTS))
+        names = [BAXTER_JOINTS[i] for i in order]
+        arrays = [states[f][k][order] for f in ("position", "velocity", "effort")]
+        frame_id = "base" * (k % 5 == 1)
+        msgs.append((int(stamp), message(kind, stamp, names, *arrays, frame_id=frame_id)))
+        kept.append(k)
+        if k % 11 == 5:  # a gripper-only message in between: skipped
+            msgs.append((int(stamp) + 1, message(kind, stamp + 1, ["r_gripper_l_finger_joint"], [0.1], [0.0], [0.0])))
+        if k % 13 == 6:  # a message without efforts: skipped
+            msgs.append((int(stamp) + 2, message(kind, stamp + 2, names, arrays[0], arrays[1], [])))
+    path = write_bag(bag_path(tmp_path, kind), kind, {"/robot/joint_states": msgs})
+    assert_recording_is(read_bag_recording(path), states, "right")
+
+
+def test_bag_without_header_stamps_uses_receive_times(tmp_path: Path) -> None:
+    states = joint_states(30)
+    receive_ns = states["stamps_ns"] + 1234
+    msgs = [
+        (int(t), message("mcap", 0, BAXTER_JOINTS, p, v, e))
+        for t, p, v, e in zip(receive_ns, states["position"], states["velocity"], states["effort"])
+    ]
+    path = write_bag(tmp_path / "unstamped", "mcap", {"/robot/joint_states": msgs})
+    np.testing.assert_array_equal(read_bag_recording(path).stamps_ns, receive_ns)
+
+
+@pytest.mark.parametrize("kind", ["ros1", "sqlite3"])
+def test_bulk_decoding_equals_rosbags_deserialization(kind: str) -> None:
+    """The numpy fast path against the typestore, message by message, on mixed layouts."""
+    ros1 = kind == "ros1"
+    store = typestore(ros1)
+    serialize = store.serialize_ros1 if ros1 else store.serialize_cdr
+    deserialize = store.deserialize_ros1 if ros1 else store.deserialize_cdr
+    rng = np.random.default_rng(2)
+    raws, expected = [], []
+    for k in range(200):
+        m = int(rng.integers(1, 4)) if k % 3 else 17
+        names = [f"j{i}" * int(rng.integers(1, 4)) for i in range(m)]
+        arrays = [rng.normal(size=m) if rng.random() > 0.1 else np.zeros(0) for _ in range(3)]
+        msg = message(kind, START_NS + k, names, *arrays, frame_id="x" * int(rng.integers(0, 6)))
+        raws.append(bytes(serialize(msg, JOINT_STATE)))
+        expected.append(msg)
+    blocks = decode_joint_states(raws, JOINT_STATE, ros1, lambda raw: deserialize(raw, JOINT_STATE))
+    seen = np.zeros(len(raws), dtype=int)
+    for block in blocks:
+        for row, i in enumerate(block.index):
+            seen[i] += 1
+            msg = expected[i]
+            assert block.names == tuple(msg.name)
+            assert block.stamps_ns[row] == msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+            for got, field in zip((block.position, block.velocity, block.effort), ("position", "velocity", "effort")):
+                want = getattr(msg, field)
+                if len(want) == len(msg.name):
+                    np.testing.assert_array_equal(got[row], want)
+                else:
+                    assert got is None
+    assert (seen == 1).all()
+
+
+def test_encoded_joint_states_are_what_rosbags_deserializes() -> None:
+    states = joint_states(5, names=arm_joint_names("right"))
+    rows = encode_joint_states(states["stamps_ns"], arm_joint_names("right"), states["position"], None, states["effort"])
+    store = typestore(ros1=False)
+    for k, row in enumerate(rows):
+        msg = store.deserialize_cdr(row.tobytes(), JOINT_STATE)
+        assert msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec == states["stamps_ns"][k]
+        assert list(msg.name) == list(arm_joint_names("right")) and msg.header.frame_id == ""
+        np.testing.assert_array_equal(msg.position, states["position"][k])
+        assert len(msg.velocity) == 0
+        np.testing.assert_array_equal(msg.effort, states["effort"][k])
+
+
+def test_mcap_writer_output_passes_the_official_mcap_reader(tmp_path: Path) -> None:
+    """An independent reader (the mcap project's), checking CRCs, indexes and statistics."""
+    from mcap.reader import make_reader
+
+    states = joint_states(N)
+    channels = [(topic, JOINT_STATE, typestore(False).generate_msgdef(JOINT_STATE, ros_version=2)[0]) for topic in ("/a", "/b")]
+    payloads = [
+        encode_joint_states(states["stamps_ns"], BAXTER_JOINTS, states["position"], states["velocity"], states["effort"]),
+        encode_joint_states(states["stamps_ns"], BAXTER_JOINTS[:2], None, None, states["effort"][:, :2]),
+    ]
+    path = tmp_path / "out.mcap"
+    write_mcap(path, channels, states["stamps_ns"], payloads, chunk_bytes=20_000)  # many chunks
+    with path.open("rb") as stream:
+        reader = make_reader(stream, validate_crcs=True)
+        summary = reader.get_summary()
+        assert reader.get_header().profile == "ros2"
+        assert summary.statistics.channel_message_counts == {1: N, 2: N} and len(summary.chunk_indexes) > 10
+        assert summary.statistics.message_start_time == states["stamps_ns"][0]
+        messages = list(reader.iter_messages(log_time_order=True))
+    assert [m.log_time for _, _, m in messages] == np.repeat(states["stamps_ns"], 2).tolist()
+    for k, (schema, channel, msg) in enumerate(messages):
+        assert schema.name == JOINT_STATE and schema.encoding == "ros2msg" and channel.message_encoding == "cdr"
+        assert msg.data == payloads[k % 2][k // 2].tobytes()
+
+
+def test_playback_messages_of_a_ros1_bag_become_ros2_joint_states_in_time_order(tmp_path: Path) -> None:
+    states = joint_states(50)
+    other = joint_states(50, names=["head_pan"], seed=3)
+    msgs = {
+        "/robot/joint_states": [(int(s), message("ros1", s, BAXTER_JOINTS, p, v, e)) for s, p, v, e in zip(*states.values())],
+        "/robot/head": [(int(s) + 5, message("ros1", s, ["head_pan"], p, v, e, sea=True)) for s, p, v, e in zip(*other.values())],
+    }
+    path = write_bag(tmp_path / "two.bag", "ros1", msgs)
+    played = read_joint_state_messages(path)
+    assert len(played) == 100
+    assert [t for t, _, _ in played] == sorted(t for t, _, _ in played)
+    store = typestore(ros1=False)
+    first_head = next(raw for _, topic, raw in played if topic == "/robot/head")
+    msg = store.deserialize_cdr(first_head, JOINT_STATE)
+    assert list(msg.name) == ["head_pan"] and msg.position[0] == other["position"][0, 0]
+    assert [topic for _, topic, _ in read_joint_state_messages(path, ["/robot/head"])] == ["/robot/head"] * 50
+
+
+@pytest.mark.parametrize("kind", BAG_KINDS)
+def test_truncated_bag_is_reported_as_corrupt(tmp_path: Path, kind: str) -> None:
+    path = write_reference_bag(bag_path(tmp_path, kind), kind, joint_states(N))
+    storage = bag_storage_file(path)
+    data = storage.read_bytes()
+    storage.write_bytes(data[: len(data) * 2 // 3])
+    with pytest.raises(RecordingFileError, match="corrupt or truncated"):
+        read_bag_recording(path)
+
+
+def test_bag_errors_name_the_path_and_the_fix(tmp_path: Path) -> None:
+    left_only = [f"left_{j}" for j in ("s0", "s1", "e0", "e1", "w0", "w1", "w2")]
+    states = joint_states(20, names=left_only)
+    path = write_reference_bag(tmp_path / "left.bag", "ros1", states, names=left_only)
+    with pytest.raises(RecordingFileError, match=r"all 7 right arm joints .*right_s0.*joint names found: left_e0"):
+        read_bag_recording(path, arm="right")
+    with pytest.raises(RecordingFileError, match=r"no topic /joint_states; joint-state topics in this bag: /robot/joint_states"):
+        read_bag_recording(path, topic="/joint_states")
+    with pytest.raises(RecordingFileError, match="no such file"):
+        read_bag_recording(tmp_path / "absent.bag")
+    heads = write_reference_bag(tmp_path / "head.bag", "ros1", joint_states(20, names=["head_pan"]), names=["head_pan"])
+    with pytest.raises(RecordingError, match="no arm has all 7 joints.*head_pan"):
+        read_bag_recording(heads)
+
+
+def test_a_topic_of_another_type_is_refused(tmp_path: Path) -> None:
+    store = typestore(ros1=False)
+    string = store.types["std_msgs/msg/String"](data="hello")
+    path = write_bag(tmp_path / "strings", "mcap", {"/robot/joint_states": [(1, string), (2, string)]})
+    with pytest.raises(RecordingFileError, match="carries std_msgs/msg/String, not sensor_msgs/JointState"):
+        read_bag_recording(path)
+
+
+# ------------------------------------------------------------------------------------------- tables
+def write_baxter_export(path: Path, states: dict, side: str = "left") -> Path:
+    """The whitespace layout of the real recordings: ang_/vel_/torq_ columns, no time."""
+    joints = arm_joint_names(side)
+    q, qd, tau = columns(states, joints)
+    header = " ".join(f"{p}_{j}" for p in ("ang", "vel", "torq") for j in joints)
+    np.savetxt(path, np.hstack([q, qd, tau]), header=header, comments="", fmt="%.17g")
+    return path
+
+
+def test_baxter_export_table_reads_at_the_given_rate(tmp_path: Path) -> None:
+    states = joint_states(N, names=BAXTER_JOINTS)
+    path = write_baxter_export(tmp_path / "export.csv", states)
+    rec = read_table_recording(path, rate_hz=50.0)
+    assert rec.side == "left" and rec.rate_hz == pytest.approx(50.0)
+    np.testing.assert_array_equal(rec.stamps_ns, np.arange(N) * 20_000_000)
+    for got, want in zip((rec.q, rec.qd, rec.effort), columns(states, arm_joint_names("left"))):
+        np.testing.assert_array_equal(got, want)
+
+
+def test_generic_table_with_a_time_column_in_any_column_order(tmp_path: Path) -> None:
+    states = joint_states(N)
+    joints = arm_joint_names("right")
+    q, qd, tau = columns(states, joints)
+    time_s = (states["stamps_ns"] - states["stamps_ns"][0]) * 1e-9
+    cols = {"time_s": time_s, "head_pan": np.zeros(N)}
+    for prefix, values in (("effort", tau), ("position", q), ("velocity", qd)):
+        cols.update({f"{prefix}_{j}": values[:, k] for k, j in enumerate(joints)})
+    path = tmp_path / "generic.csv"
+    np.savetxt(path, np.column_stack(list(cols.values())), delimiter=",", header=",".join(cols), comments="", fmt="%.17g")
+    rec = read_table_recording(path)
+    assert rec.side == "right"
+    np.testing.assert_array_equal(rec.stamps_ns, np.round(time_s * 1e9).astype(np.int64))
+    np.testing.assert_array_equal(rec.q, q)
+    np.testing.assert_array_equal(rec.effort, tau)
+
+
+def test_table_errors_name_the_columns(tmp_path: Path) -> None:
+    states = joint_states(20)
+    path = write_baxter_export(tmp_path / "export.txt", states, side="right")
+    text = path.read_text().replace("torq_right_w2", "torque_w2")
+    path.write_text(text)
+    with pytest.raises(RecordingError, match="no arm has all 7 joints"):
+        read_table_recording(path)
+    with pytest.raises(RecordingFileError, match="missing here: torq_right_w2"):
+        read_table_recording(path, arm="right")
+    (tmp_path / "words.csv").write_text("a,b\n1,x\n")
+    with pytest.raises(RecordingFileError, match="not a table of numbers"):
+        read_table_recording(tmp_path / "words.csv")
+    (tmp_path / "other.csv").write_text("a,b\n1,2\n")
+    with pytest.raises(RecordingFileError, match="no joint columns; expected ang_/vel_/torq_"):
+        read_table_recording(tmp_path / "other.csv")
+
+
+@pytest.mark.skipif(not REAL_FILES, reason=f"real Baxter recordings absent ({REAL_DATA})")
+@pytest.mark.parametrize("path", REAL_FILES, ids=lambda p: p.name[:20])
+def test_real_baxter_recordings_read_as_the_left_arm_at_100_hz(path: Path) -> None:
+    rec = read_table_recording(path)
+    raw = np.loadtxt(path, skiprows=1)
+    assert rec.side == "left" and len(rec) == len(raw) > 5000
+    assert rec.rate_hz == pytest.approx(100.0)
+    np.testing.assert_array_equal(np.hstack([rec.q, rec.qd, rec.effort]), raw)
+    # The export's quantisation survives reading: torques on the 0.004 N·m grid.
+    np.testing.assert_allclose(rec.effort / 0.004, np.round(rec.effort / 0.004), atol=1e-6)
+
+
+@pytest.mark.parametrize("suffix", [".mcap", ".csv", ".parquet"])
+def test_joint_states_written_by_extension_read_back_exactly(tmp_path: Path, suffix: str) -> None:
+    states = joint_states(N)
+    path = tmp_path / f"states{suffix}"
+    write_joint_states(path, states["stamps_ns"], BAXTER_JOINTS, states["position"], states["velocity"], states["effort"])
+    assert listing_of(tmp_path) == [path.name]
+    assert_recording_is(read_recording(path), states, "right")
+    with pytest.raises(RecordingFileError, match="exists already; choose another output or pass --force"):
+        write_joint_states(path, states["stamps_ns"], BAXTER_JOINTS, states["position"], states["velocity"], states["effort"])
+
+
+def listing_of(folder: Path) -> list[str]:
+    return sorted(p.name for p in folder.iterdir())
+
+
+# --------------------------------------------------------------------------------------- recording
+def test_recording_validates_itself_quoting_sizes() -> None:
+    joints = arm_joint_names("right")
+    stamps = np.arange(4) * 10
+    good = np.zeros((4, 7))
+    with pytest.raises(RecordingError, match=r"q must be \(4, 7\) like stamps_ns, got \(4, 6\)"):
+        Recording("right", joints, stamps, good[:, :6], good, good)
+    with pytest.raises(RecordingError, match="sample 2 of 4 is at 10 ns after 10 ns"):
+        Recording("right", joints, [0, 10, 10, 20], good, good, good)
+    bad = good.copy()
+    bad[2, 3] = np.nan
+    with pytest.raises(RecordingError, match="effort has 1 non-finite values, the first at sample 2 joint right_e1"):
+        Recording("right", joints, stamps, good, good, bad)
+    with pytest.raises(RecordingError, match="joint_names must be the left arm's"):
+        Recording("left", joints, stamps, good, good, good)
+    rec = Recording("right", joints, stamps, good, good, good)
+    assert not rec.q.flags.writeable and rec.rate_hz == pytest.approx(1e8)
+
+
+def test_arm_detection_needs_a_choice_when_both_arms_move_alike() -> None:
+    both = [*arm_joint_names("left"), *arm_joint_names("right")]
+    assert detect_arm(arm_joint_names("left")) == "left"
+    assert detect_arm(both, {"right": 0.1, "left": 2.0}) == "left"
+    with pytest.raises(RecordingError, match="choose one with --arm"):
+        detect_arm(both, {"right": 1.0, "left": 1.0})
