@@ -1,0 +1,306 @@
+"""The live node's work on one joint-state sample, and its health report; numpy only, no ROS.
+
+:class:`ResidualPipeline` turns one sample of the arm (stamp, q, q̇ or nothing, effort or nothing)
+into G(q), τ and the residual, or into a :class:`SkipReason` (the message reader,
+:mod:`msg_adapters.joint_state`, gives the others: ``unreadable``, ``missing_joint``,
+``array_length``). For sample k, k−1 being the last accepted sample:
+
+1. skipped if any of the arm's q, q̇ or effort values is NaN or ±inf (``non_finite_input``);
+2. skipped if t_k = t_{k−1} (``duplicate_stamp``); if t_k < t_{k−1} the estimator is reset and the
+   sample skipped (``stamp_backwards``: a recording restarting, a publisher restarting), so the
+   samples after it start afresh instead of being compared with the old ones;
+3. without q̇ (empty velocity in the message) q̇_k = (q_k − q_{k−1}) / Δt_k, the backward difference
+   of the positions; the first sample after a (re)start has nothing to difference and is skipped
+   (``velocity_warm_up``, expected once, not a fault);
+4. q̈_k from the causal estimator on q̇ with Δt_k = t_k − t_{k−1} taken from the stamps:
+   ``lowpass`` (:class:`~baxter_dynamics_ros.acceleration.LowPassDifferentiator`, −3 dB at
+   ``cutoff_hz``) or ``first_difference`` (the paper's raw difference); q̈ = 0 on the first sample
+   after a (re)start;
+5. τ = M(q) q̈ + C(q, q̇) + G(q) (eq. 1) and G(q) = τ(q, 0, 0) from one call of the compiled core;
+   if either holds NaN/inf, or the residual does, the estimator (whose state holds the same
+   values) is reset and the sample skipped (``non_finite_model``);
+6. residual = measured effort − τ, or None when the message has no effort.
+
+:class:`HealthMonitor` counts what happened to every sample and reports once per window (the
+node's ``diagnostics_period_s``, 1 s by default) as plain data, which the node publishes on
+/diagnostics. Levels:
+
+- OK — samples came in and every one was published, with a residual;
+- WARN — no sample came in the window (robot or recording stopped, wrong topic), or some samples
+  were skipped for a fault, or some samples had no effort (no residual published for them);
+- ERROR — samples came in but none could be published (every one skipped for a fault).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from enum import Enum, IntEnum
+from typing import NamedTuple
+
+import numpy as np
+
+from .acceleration import FirstDifference, LowPassDifferentiator
+from .arm_model import ArmModel
+from .errors import SettingsError
+from .node_settings import ESTIMATORS
+
+__all__ = [
+    "ArmSample",
+    "Health",
+    "HealthMonitor",
+    "HealthReport",
+    "ModelTorques",
+    "ResetCause",
+    "ResidualPipeline",
+    "SKIP_DESCRIPTIONS",
+    "SkipReason",
+    "make_estimator",
+]
+
+
+class SkipReason(Enum):
+    """Why a sample gave no output; the value names the cause in diagnostics and logs."""
+
+    UNREADABLE = "unreadable"
+    MISSING_JOINT = "missing_joint"
+    ARRAY_LENGTH = "array_length"
+    NON_FINITE_INPUT = "non_finite_input"
+    DUPLICATE_STAMP = "duplicate_stamp"
+    STAMP_BACKWARDS = "stamp_backwards"
+    VELOCITY_WARM_UP = "velocity_warm_up"
+    NON_FINITE_MODEL = "non_finite_model"
+
+    @property
+    def is_fault(self) -> bool:
+        """False for the one expected skip (the first sample without velocity), True otherwise."""
+        return self is not SkipReason.VELOCITY_WARM_UP
+
+
+#: One line per cause, for the node's warnings.
+SKIP_DESCRIPTIONS: dict[SkipReason, str] = {
+    SkipReason.UNREADABLE: "the message's bytes are not a JointState in plain CDR",
+    SkipReason.MISSING_JOINT: "an arm joint is missing from the message's name list, or named twice",
+    SkipReason.ARRAY_LENGTH: "position (or a non-empty velocity/effort) has not one entry per name",
+    SkipReason.NON_FINITE_INPUT: "NaN or inf in the arm's position, velocity or effort",
+    SkipReason.DUPLICATE_STAMP: "same header stamp as the previous sample",
+    SkipReason.STAMP_BACKWARDS: "header stamp earlier than the previous sample's; estimator reset",
+    SkipReason.VELOCITY_WARM_UP: "no velocity in the message: waiting for a second sample to difference",
+    SkipReason.NON_FINITE_MODEL: "the dynamics gave NaN or inf (absurdly large input?); estimator reset",
+}
+
+
+class ResetCause(Enum):
+    """Why the estimator was reset from outside the pipeline."""
+
+    SERVICE = "service"
+    CLOCK_JUMP = "clock_jump"
+    SETTINGS = "settings"
+
+
+class ArmSample(NamedTuple):
+    """One sample of the arm: stamp in ns; q (7,) rad; qd (7,) rad/s or None; effort (7,) N·m or None."""
+
+    stamp_ns: int
+    q: np.ndarray
+    qd: np.ndarray | None
+    effort: np.ndarray | None
+
+
+class ModelTorques(NamedTuple):
+    """The pipeline's output for one sample, all (7,): q rad, qd rad/s (measured, or differenced
+    from positions when ``qd_from_positions``), qdd rad/s² (estimated), gravity G(q), tau (eq. 1)
+    and residual = effort − tau in N·m (None without effort)."""
+
+    stamp_ns: int
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    gravity: np.ndarray
+    tau: np.ndarray
+    residual: np.ndarray | None
+    qd_from_positions: bool
+
+
+def make_estimator(name: str, cutoff_hz: float) -> LowPassDifferentiator | FirstDifference:
+    """The causal q̈ estimator called ``name`` (``lowpass`` at cutoff_hz, or ``first_difference``)."""
+    if name not in ESTIMATORS:
+        raise SettingsError(f"estimator: expected one of {', '.join(ESTIMATORS)}, got {name!r}")
+    if name == "first_difference":
+        return FirstDifference()
+    try:
+        return LowPassDifferentiator(cutoff_hz)
+    except ValueError as err:
+        raise SettingsError(f"cutoff_hz: {err}") from err
+
+
+def _all_finite(x: np.ndarray | None) -> bool:
+    return x is None or bool(np.isfinite(x).all())
+
+
+class ResidualPipeline:
+    """G, τ and residual of one arm, one sample at a time (see the module docstring for the steps)."""
+
+    def __init__(self, arm: ArmModel, estimator: str = "lowpass", cutoff_hz: float = 10.0) -> None:
+        self.arm = arm
+        self._estimator = make_estimator(estimator, cutoff_hz)
+        self._last_stamp_ns: int | None = None
+        self._last_q: np.ndarray | None = None
+        # One batch of two rows for the compiled core: row 0 gives τ(q, q̇, q̈), row 1 G(q) = τ(q, 0, 0).
+        self._q2 = np.zeros((2, 7))
+        self._qd2 = np.zeros((2, 7))
+        self._qdd2 = np.zeros((2, 7))
+        self._dynamics()  # load the compiled core now rather than on the first sample
+
+    def configure(self, estimator: str, cutoff_hz: float) -> None:
+        """Switch to another estimator (or cutoff); the state starts afresh."""
+        self._estimator = make_estimator(estimator, cutoff_hz)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every past sample: the next one restarts the estimator (q̈ = 0)."""
+        self._estimator.reset()
+        self._last_stamp_ns = None
+        self._last_q = None
+
+    def _dynamics(self) -> np.ndarray:
+        """(2, 7): τ of the batch rows set in _q2, _qd2, _qdd2."""
+        return self.arm.inverse_dynamics(self._q2, self._qd2, self._qdd2)
+
+    def process(self, sample: ArmSample) -> ModelTorques | SkipReason:
+        """The model's torques for one sample, or why it was skipped."""
+        stamp_ns, q, qd, effort = sample
+        if not (_all_finite(q) and _all_finite(qd) and _all_finite(effort)):
+            return SkipReason.NON_FINITE_INPUT
+        last_ns = self._last_stamp_ns
+        dt_s = 0.0
+        if last_ns is not None:
+            if stamp_ns == last_ns:
+                return SkipReason.DUPLICATE_STAMP
+            if stamp_ns < last_ns:
+                self.reset()
+                return SkipReason.STAMP_BACKWARDS
+            dt_s = (stamp_ns - last_ns) * 1e-9
+        qd_from_positions = qd is None
+        if qd is None:
+            if self._last_q is None:
+                self._last_stamp_ns, self._last_q = stamp_ns, q
+                return SkipReason.VELOCITY_WARM_UP
+            qd = (q - self._last_q) / dt_s
+        self._last_stamp_ns, self._last_q = stamp_ns, q
+        qdd = self._estimator.update(qd, dt_s)
+        self._q2[0] = q
+        self._q2[1] = q
+        self._qd2[0] = qd
+        self._qdd2[0] = qdd
+        tau_and_gravity = self._dynamics()
+        residual = None if effort is None else effort - tau_and_gravity[0]
+        if not (_all_finite(tau_and_gravity) and _all_finite(residual)):
+            self.reset()
+            return SkipReason.NON_FINITE_MODEL
+        return ModelTorques(
+            stamp_ns, q, qd, qdd, tau_and_gravity[1], tau_and_gravity[0], residual, qd_from_positions
+        )
+
+
+class Health(IntEnum):
+    """Report level; the values are diagnostic_msgs/DiagnosticStatus's OK, WARN and ERROR."""
+
+    OK = 0
+    WARN = 1
+    ERROR = 2
+
+
+class HealthReport(NamedTuple):
+    """One window's summary: level, a one-line message, and (key, value) pairs to publish."""
+
+    level: Health
+    message: str
+    values: tuple[tuple[str, str], ...]
+
+
+class HealthMonitor:
+    """Counts the pipeline's results over a window and reports (see the module docstring).
+
+    Per window: input rate, samples received / published / skipped per cause, processing latency
+    (mean and max, as measured by the caller), and the per-joint residual RMS
+    sqrt(mean(residual²)) over the window's samples. Totals since start for skips and resets.
+    """
+
+    def __init__(self, joint_names: Sequence[str], topic: str) -> None:
+        self.joint_names = tuple(joint_names)
+        self.topic = topic
+        self._skips_total = dict.fromkeys(SkipReason, 0)
+        self._resets_total = dict.fromkeys(ResetCause, 0)
+        self._new_window()
+
+    def _new_window(self) -> None:
+        self._skips = dict.fromkeys(SkipReason, 0)
+        self._published = 0
+        self._with_residual = 0
+        self._qd_from_positions = 0
+        self._residual_sq_sum = np.zeros(len(self.joint_names))
+        self._latency_sum_ns = 0
+        self._latency_max_ns = 0
+
+    def record(self, result: ModelTorques | SkipReason, latency_ns: int) -> None:
+        """Count one sample's result and the time the caller took to handle it (ns)."""
+        self._latency_sum_ns += latency_ns
+        if latency_ns > self._latency_max_ns:
+            self._latency_max_ns = latency_ns
+        if isinstance(result, SkipReason):
+            self._skips[result] += 1
+            return
+        self._published += 1
+        self._qd_from_positions += result.qd_from_positions
+        if result.residual is not None:
+            self._with_residual += 1
+            self._residual_sq_sum += result.residual * result.residual
+
+    def record_reset(self, cause: ResetCause) -> None:
+        """Count an estimator reset asked from outside the pipeline."""
+        self._resets_total[cause] += 1
+
+    def report(self, elapsed_s: float) -> HealthReport:
+        """Summarise the window that lasted elapsed_s seconds, and start the next one."""
+        skipped = sum(self._skips.values())
+        received = self._published + skipped
+        faults = {r.value: n for r, n in self._skips.items() if n and r.is_fault}
+        fault_text = ", ".join(f"{name}: {n}" for name, n in faults.items())
+        if received == 0:
+            level, message = Health.WARN, f"no joint states on {self.topic} in the last {elapsed_s:.1f} s"
+        elif self._published == 0 and faults:
+            level, message = Health.ERROR, f"all {received} samples skipped ({fault_text}): nothing published"
+        elif self._published == 0:
+            level, message = Health.WARN, "no velocity in the input: waiting for a second sample"
+        elif faults:
+            level, message = Health.WARN, f"{skipped} of {received} samples skipped ({fault_text})"
+        elif self._with_residual < self._published:
+            missing = self._published - self._with_residual
+            level, message = Health.WARN, f"{missing} of {received} samples had no effort: no residual for them"
+        else:
+            level, message = Health.OK, f"publishing at {received / elapsed_s:.1f} Hz"
+
+        for reason, n in self._skips.items():
+            self._skips_total[reason] += n
+        rate_hz = received / elapsed_s if elapsed_s > 0 else 0.0
+        values: list[tuple[str, str]] = [
+            ("topic", self.topic),
+            ("window_s", f"{elapsed_s:.3f}"),
+            ("input_rate_hz", f"{rate_hz:.1f}"),
+            ("samples_received", str(received)),
+            ("samples_published", str(self._published)),
+            ("residuals_published", str(self._with_residual)),
+            ("velocity_from_positions", str(self._qd_from_positions)),
+            ("latency_mean_us", f"{self._latency_sum_ns / received / 1e3:.1f}" if received else "n/a"),
+            ("latency_max_us", f"{self._latency_max_ns / 1e3:.1f}" if received else "n/a"),
+        ]
+        values += [(f"skipped.{r.value}", str(n)) for r, n in self._skips.items()]
+        values += [(f"skipped_total.{r.value}", str(n)) for r, n in self._skips_total.items()]
+        values += [(f"resets_total.{c.value}", str(n)) for c, n in self._resets_total.items()]
+        if self._with_residual:
+            rms = np.sqrt(self._residual_sq_sum / self._with_residual)
+            values += [(f"residual_rms_nm.{j}", f"{r:.4g}") for j, r in zip(self.joint_names, rms)]
+        else:
+            values += [(f"residual_rms_nm.{j}", "n/a") for j in self.joint_names]
+        self._new_window()
+        return HealthReport(level, message, tuple(values))

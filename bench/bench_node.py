@@ -1,0 +1,313 @@
+"""End-to-end speed of the live node, against a bare JointState ping-pong measured in the same run.
+
+Issue 3 §7. This process publishes Baxter-like ``/robot/joint_states`` (21 joints, alphabetical,
+header stamps counting the samples) at each rate and listens to ``/baxter_dynamics/residual`` from
+the node, a subprocess (``python -m baxter_dynamics_ros.node``). Latency is publish → residual
+received, both timed here on the monotonic clock; loss counts residuals that never came (1 s drain
+after the last publish); node CPU is its utime + stime from /proc/<pid>/stat over the run, in % of
+one core, split by thread (the node's joint-state thread, its executor, Fast DDS's threads); the
+node's own time per sample (read + dynamics + writes) comes from its /diagnostics. The reference:
+the same messages sent to an echo subprocess (``--echo``, a plain rclpy node whose executor hands
+each message to ``publish``) that sends each one straight back, with the node's QoS, timed the
+same way. Only ``~/residual`` has a subscriber, as when a user plots it (the node writes only to
+topics someone listens to).
+
+Goals at 1 kHz: no loss, p99 ≤ 2 ms, node CPU ≤ 25 % of one core.
+Usage: ``python -m bench.bench_node [--duration S] [--rates HZ ...]`` (default 60 s at 100 and
+1000 Hz); ``./dev bench node`` runs the defaults.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from array import array
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from baxter_dynamics_ros.ros_env import isolated_ros_env
+
+REPO = Path(__file__).resolve().parents[1]
+JOINTS = sorted(
+    ["head_nod", "head_pan", "l_gripper_l_finger_joint", "l_gripper_r_finger_joint", "r_gripper_l_finger_joint",
+     "r_gripper_r_finger_joint", "torso_t0"]
+    + [f"{side}_{j}" for side in ("left", "right") for j in ("e0", "e1", "s0", "s1", "w0", "w1", "w2")]
+)
+PING, PONG = "/bench/ping", "/bench/pong"
+INPUT, RESIDUAL = "/robot/joint_states", "/baxter_dynamics/residual"
+T0_NS = 1_700_000_000_000_000_000
+QOS_DEPTH = 100
+DRAIN_S = 1.0
+CLOCK_TICKS_S = os.sysconf("SC_CLK_TCK")
+GOALS_1KHZ = {"lost": 0, "p99_ms": 2.0, "cpu_percent": 25.0}
+
+
+def _qos():
+    """(subscription, publisher) QoS as the node uses them: sensor data in, reliable out."""
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+    return (
+        QoSProfile(depth=QOS_DEPTH, reliability=ReliabilityPolicy.BEST_EFFORT),
+        QoSProfile(depth=QOS_DEPTH, reliability=ReliabilityPolicy.RELIABLE),
+    )
+
+
+def echo() -> int:
+    """The reference peer: publish every JointState of PING back on PONG, unchanged."""
+    import rclpy
+    from rclpy.executors import ExternalShutdownException
+    from sensor_msgs.msg import JointState
+
+    rclpy.init()
+    node = rclpy.create_node("bench_echo")
+    sub_qos, pub_qos = _qos()
+    publisher = node.create_publisher(JointState, PONG, pub_qos)
+    node.create_subscription(JointState, PING, publisher.publish, sub_qos)
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+def _cpu_s(stat_path: Path) -> float:
+    """CPU time (user + system) of a /proc stat file, s (utime, stime: fields 14, 15)."""
+    fields = stat_path.read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / CLOCK_TICKS_S
+
+
+def cpu_s(pid: int) -> dict[str, float]:
+    """CPU time used so far by process pid, s: in total, and by its main thread (the executor),
+    its DDS threads and its other threads."""
+    out = {"total": _cpu_s(Path(f"/proc/{pid}/stat")), "main": 0.0, "dds": 0.0, "other": 0.0}
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        try:
+            comm = (task / "comm").read_text().strip()
+            used = _cpu_s(task / "stat")
+        except FileNotFoundError:  # the thread ended meanwhile
+            continue
+        out["main" if task.name == str(pid) else "dds" if comm.startswith("dds") else "other"] += used
+    return out
+
+
+@dataclass(frozen=True)
+class Result:
+    """One run: samples sent and lost, latency percentiles in ms, peer CPU in % of one core."""
+
+    sent: int
+    lost: int
+    p50_ms: float
+    p99_ms: float
+    max_ms: float
+    cpu_percent: float
+    cpu_by_thread: dict[str, float]
+    processing_us: tuple[float, float] | None  # node's own mean and max per sample, from /diagnostics
+
+
+class Bench:
+    """This process's side: publishers to both peers, and the receive times of their answers."""
+
+    def __init__(self) -> None:
+        import rclpy
+        from rclpy.executors import SingleThreadedExecutor
+        from diagnostic_msgs.msg import DiagnosticArray
+        from sensor_msgs.msg import JointState
+
+        rclpy.init()
+        self.node = rclpy.create_node("bench_node_client")
+        sub_qos, pub_qos = _qos()
+        self.publishers = {
+            PONG: self.node.create_publisher(JointState, PING, pub_qos),
+            RESIDUAL: self.node.create_publisher(JointState, INPUT, pub_qos),
+        }
+        self.received_ns = np.zeros(0, dtype=np.int64)
+        self.period_ns = 1
+        self.base_ns = T0_NS  # stamp of sample 0 of the current run; runs never go back in time
+        for topic in (PONG, RESIDUAL):
+            self.node.create_subscription(JointState, topic, self.on_answer, pub_qos)
+        self.diagnostics: list[tuple[int, dict[str, str]]] = []  # (receipt ns, the node's status values)
+        self.node.create_subscription(DiagnosticArray, "/diagnostics", self.on_diagnostics, 10)
+        self.executor = SingleThreadedExecutor()
+        self.executor.add_node(self.node)
+        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
+        self.thread.start()
+        rng = np.random.default_rng(0)
+        self.table = [array("d", rng.uniform(-1, 1, len(JOINTS))) for _ in range(3 * 1000)]
+        self.msg = JointState(name=JOINTS)
+
+    def on_answer(self, msg) -> None:
+        now = time.perf_counter_ns()
+        i = (msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec - self.base_ns) // self.period_ns
+        if 0 <= i < len(self.received_ns):
+            self.received_ns[i] = now
+
+    def on_diagnostics(self, msg) -> None:
+        for status in msg.status:
+            if "baxter_dynamics" in status.name:
+                self.diagnostics.append((time.perf_counter_ns(), {kv.key: kv.value for kv in status.values}))
+
+    def processing_us(self, start_ns: int, end_ns: int) -> tuple[float, float] | None:
+        """Sample-weighted mean and max of the node's processing time over reports in [start, end]."""
+        windows = [v for t, v in self.diagnostics if start_ns < t <= end_ns and v["samples_received"] != "0"]
+        if not windows:
+            return None
+        n = np.array([int(v["samples_received"]) for v in windows])
+        mean = np.array([float(v["latency_mean_us"]) for v in windows])
+        return float((n * mean).sum() / n.sum()), max(float(v["latency_max_us"]) for v in windows)
+
+    def _publish(self, topic: str, i: int) -> None:
+        msg = self.msg
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(self.base_ns + i * self.period_ns, 1_000_000_000)
+        k = 3 * (i % 1000)
+        msg.position, msg.velocity, msg.effort = self.table[k], self.table[k + 1], self.table[k + 2]
+        self.publishers[topic].publish(msg)
+
+    def _new_run(self, n: int, period_ns: int) -> None:
+        """Stamps of the next n samples: period_ns apart, 1 s after the last run's."""
+        self.base_ns += len(self.received_ns) * self.period_ns + 1_000_000_000
+        self.period_ns, self.received_ns = period_ns, np.zeros(n, dtype=np.int64)
+
+    def wait_matched(self, topic: str, timeout_s: float = 60.0) -> None:
+        """Probe until the peer answers (both directions matched)."""
+        self._new_run(10_000, 1_000_000)
+        deadline = time.monotonic() + timeout_s
+        for i in range(10_000):
+            self._publish(topic, i)
+            time.sleep(0.05)
+            if self.received_ns.any():
+                return
+            if time.monotonic() > deadline:
+                break
+        raise RuntimeError(f"no answer on {topic} within {timeout_s} s")
+
+    def run(self, topic: str, rate_hz: float, duration_s: float, pid: int) -> Result:
+        n = int(rate_hz * duration_s)
+        self._new_run(n, round(1e9 / rate_hz))
+        sent_ns = np.zeros(n, dtype=np.int64)
+        cpu0, wall0 = cpu_s(pid), time.perf_counter()
+        start_ns = time.perf_counter_ns()
+        for i in range(n):
+            delay_ns = start_ns + i * self.period_ns - time.perf_counter_ns()
+            if delay_ns > 0:
+                time.sleep(delay_ns * 1e-9)
+            sent_ns[i] = time.perf_counter_ns()
+            self._publish(topic, i)
+        cpu1, wall1 = cpu_s(pid), time.perf_counter()
+        end_ns = time.perf_counter_ns()
+        time.sleep(DRAIN_S)
+        got = self.received_ns > 0
+        latency_ms = (self.received_ns[got] - sent_ns[got]) * 1e-6
+        if not latency_ms.size:
+            latency_ms = np.array([np.nan])
+        cpu_percent = {k: 100 * (cpu1[k] - cpu0[k]) / (wall1 - wall0) for k in cpu0}
+        return Result(
+            n,
+            int(n - got.sum()),
+            *np.percentile(latency_ms, [50, 99, 100]),
+            cpu_percent.pop("total"),
+            cpu_percent,
+            self.processing_us(start_ns, end_ns + 1_000_000_000),  # the report closing the run's last window
+        )
+
+    def close(self) -> None:
+        import rclpy
+
+        self.executor.shutdown()
+        self.thread.join()
+        self.node.destroy_node()
+        rclpy.try_shutdown()
+
+
+def _start(args: Sequence[str]) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, *args], cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+
+
+def _stop(process: subprocess.Popen) -> None:
+    process.send_signal(signal.SIGINT)
+    try:
+        process.wait(timeout=15)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        process.wait()
+
+
+def measure(duration_s: float, rates_hz: Sequence[float]) -> dict[tuple[float, str], Result]:
+    peers = {
+        PONG: _start(["-m", "bench.bench_node", "--echo"]),
+        RESIDUAL: _start(["-m", "baxter_dynamics_ros.node", "--ros-args", "-p", "arm:=right"]),
+    }
+    bench = Bench()
+    results = {}
+    try:
+        for topic in peers:
+            bench.wait_matched(topic)
+        for rate_hz in rates_hz:
+            for topic, process in peers.items():
+                bench.run(topic, rate_hz, min(2.0, duration_s), process.pid)  # warm-up
+                results[rate_hz, topic] = bench.run(topic, rate_hz, duration_s, process.pid)
+    finally:
+        bench.close()
+        for process in peers.values():
+            _stop(process)
+    return results
+
+
+def report(results: dict[tuple[float, str], Result], duration_s: float) -> None:
+    print(f"Live node end to end, {len(JOINTS)}-joint JointState, {duration_s:g} s per rate")
+    print(f"  node: {INPUT} -> {RESIDUAL};  reference: echo {PING} -> {PONG}")
+    print(f"{'rate':>8} {'path':>10} {'sent':>7} {'lost':>5} {'p50 ms':>8} {'p99 ms':>8} {'max ms':>8} {'CPU %':>6}")
+    for rate_hz in sorted({r for r, _ in results}):
+        rows = {"echo": results[rate_hz, PONG], "node": results[rate_hz, RESIDUAL]}
+        for name, r in rows.items():
+            print(f"{rate_hz:>6g}Hz {name:>10} {r.sent:>7} {r.lost:>5} {r.p50_ms:>8.3f} {r.p99_ms:>8.3f} {r.max_ms:>8.2f} {r.cpu_percent:>6.1f}")
+        node, ref = rows["node"], rows["echo"]
+        print(
+            f"{'':>8} {'node/echo':>10} {'':>7} {'':>5} {node.p50_ms / ref.p50_ms:>7.2f}x {node.p99_ms / ref.p99_ms:>7.2f}x"
+            f" {'':>8} {node.cpu_percent / ref.cpu_percent:>5.2f}x"
+        )
+        threads = node.cpu_by_thread
+        line = (
+            f"{'':>8} node CPU by thread: joint-state thread {threads['other']:.1f} %, executor {threads['main']:.1f} %,"
+            f" DDS {threads['dds']:.1f} %"
+        )
+        if node.processing_us is not None:
+            line += f"; read + dynamics + writes per sample: mean {node.processing_us[0]:.0f} µs, max {node.processing_us[1]:.0f} µs"
+        print(line)
+    if 1000.0 in {r for r, _ in results}:
+        node = results[1000.0, RESIDUAL]
+        verdict = {
+            f"no loss (lost {node.lost})": node.lost <= GOALS_1KHZ["lost"],
+            f"p99 ≤ {GOALS_1KHZ['p99_ms']} ms ({node.p99_ms:.3f})": node.p99_ms <= GOALS_1KHZ["p99_ms"],
+            f"CPU ≤ {GOALS_1KHZ['cpu_percent']} % ({node.cpu_percent:.1f})": node.cpu_percent <= GOALS_1KHZ["cpu_percent"],
+        }
+        print("goals at 1 kHz: " + "; ".join(f"{k}: {'met' if ok else 'MISSED'}" for k, ok in verdict.items()))
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m bench.bench_node", description=__doc__.split("\n")[0])
+    parser.add_argument("--duration", type=float, default=60.0, help="seconds per rate and path (default 60)")
+    parser.add_argument("--rates", type=float, nargs="+", default=[100.0, 1000.0], help="input rates in Hz")
+    parser.add_argument("--echo", action="store_true", help=argparse.SUPPRESS)  # run as the reference peer
+    args = parser.parse_args([] if argv is None else argv)
+    if args.echo:
+        return echo()
+    with tempfile.TemporaryDirectory(prefix="bench_node-roslog-") as log_dir, isolated_ros_env(log_dir) as env:
+        os.environ.update(env)  # this process and both peers: a private domain, discovery on localhost
+        report(measure(args.duration, args.rates), args.duration)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

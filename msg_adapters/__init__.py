@@ -1,0 +1,17 @@
+"""The only code that knows ROS message and bag layouts; everything else sees numpy arrays.
+
+- :mod:`msg_adapters.joint_state` — the live node's messages: serialized ``sensor_msgs/JointState``
+  to one arm's arrays by joint name and back, and its DiagnosticArray;
+- :mod:`msg_adapters.serialized_joint_states` — JointState / SEAJointState bytes decoded and
+  encoded in bulk;
+- :mod:`msg_adapters.bag_io`, :mod:`msg_adapters.mcap_writer` — ROS 1 and ROS 2 bags in and out;
+- :mod:`msg_adapters.csv_io` — recordings as tables (CSV, Parquet);
+- :mod:`msg_adapters.recording_files` — which reader or writer a path calls for.
+
+Submodules are imported on demand (``from msg_adapters.bag_io import ...``): only
+:mod:`~msg_adapters.joint_state` needs rclpy's message packages.
+"""
+
+from __future__ import annotations
+
+__all__ = ["bag_io", "csv_io", "joint_state", "mcap_writer", "recording_files", "serialized_joint_states"]

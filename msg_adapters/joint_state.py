@@ -1,0 +1,140 @@
+"""Live ``sensor_msgs/JointState`` messages, serialized (CDR bytes), ↔ one arm's arrays; diagnostics.
+
+The node subscribes and publishes serialized messages (``raw=True``, ``publish(bytes)``): turning
+a 21-joint JointState into a Python message and three 7-joint answers back into C costs more than
+all of the dynamics, so the bytes are read and written here directly, with the byte layouts of
+:mod:`msg_adapters.serialized_joint_states`.
+
+Input (:class:`JointStateReader`): any superset of the arm's joints in any order (a real Baxter
+sends both arms, the head and the grippers, alphabetically), mapped by name. A publisher's
+messages all share one layout (names, array lengths, frame_id); it is parsed when it changes, and
+the name → index map rebuilt only when the names change. ``position`` must have one entry per
+name; ``velocity`` and ``effort`` one per name or none (the sample then has no q̇ / no effort).
+
+Output (:class:`ArmJointStateWriter`): CDR bytes of JointState messages with the arm's 7 joint
+names, the input's header stamp (frame_id empty: joint-space torques have no frame), position and
+velocity of the sample, effort = a torque. :func:`diagnostic_array`: the /diagnostics message of
+a :class:`~baxter_dynamics_ros.residuals.HealthReport`.
+"""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Sequence
+
+import numpy as np
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rclpy.serialization import serialize_message
+from sensor_msgs.msg import JointState
+
+from baxter_dynamics_ros.residuals import ArmSample, HealthReport, ModelTorques, SkipReason
+
+from .serialized_joint_states import _Layout, _parse_layout, _runs
+
+__all__ = ["ArmJointStateWriter", "JointStateReader", "diagnostic_array"]
+
+N_ARRAYS = 3  # position, velocity, effort
+
+
+class JointStateReader:
+    """Reads one arm's sample out of serialized JointState messages, by joint name."""
+
+    def __init__(self, joint_names: Sequence[str]) -> None:
+        self.joint_names = tuple(joint_names)
+        self._layout: _Layout | None = None
+        self._template = b""  # the message the layout was parsed from
+        self._structure: list[tuple[int, int]] = []  # byte ranges every message of the layout shares
+        self._index: np.ndarray | SkipReason = SkipReason.MISSING_JOINT
+        self._stamp = struct.Struct("<iI")
+
+    def _same_layout(self, raw: bytes) -> bool:
+        template = self._template
+        return (
+            self._layout is not None
+            and len(raw) == len(template)
+            and all(raw[a:b] == template[a:b] for a, b in self._structure)
+        )
+
+    def _learn_layout(self, raw: bytes) -> bool:
+        """Parse a new layout; rebuild the index map if its names differ. False if unreadable."""
+        try:
+            layout = _parse_layout(raw, ros1=False, n_arrays=N_ARRAYS)
+        except (ValueError, UnicodeDecodeError):
+            return False
+        if self._layout is None or layout.names != self._layout.names:
+            self._index = self._index_map(list(layout.names))
+        self._layout, self._template, self._structure = layout, raw, _runs(layout.structure)
+        self._stamp = struct.Struct(layout.endian + "iI")
+        return True
+
+    def _index_map(self, names: list[str]) -> np.ndarray | SkipReason:
+        """(7,) positions of the arm's joints in ``names``; MISSING_JOINT if one is absent or repeated."""
+        if any(names.count(joint) != 1 for joint in self.joint_names):
+            return SkipReason.MISSING_JOINT
+        return np.array([names.index(joint) for joint in self.joint_names], dtype=np.intp)
+
+    def read(self, raw: bytes) -> ArmSample | SkipReason:
+        """The arm's (7,) q, q̇ (None if velocity is empty), effort (None if empty) and stamp."""
+        if not self._same_layout(raw) and not self._learn_layout(raw):
+            return SkipReason.UNREADABLE
+        index = self._index
+        if isinstance(index, SkipReason):
+            return index
+        layout = self._layout
+        n = len(layout.names)
+        (p, n_position), (v, n_velocity), (e, n_effort) = layout.arrays
+        if n_position != n or n_velocity not in (0, n) or n_effort not in (0, n):
+            return SkipReason.ARRAY_LENGTH
+        f8 = layout.endian + "f8"
+        sec, nanosec = self._stamp.unpack_from(raw, layout.stamp_offset)
+        return ArmSample(
+            sec * 1_000_000_000 + nanosec,
+            np.frombuffer(raw, f8, n, p)[index].astype(float, copy=False),
+            np.frombuffer(raw, f8, n, v)[index].astype(float, copy=False) if n_velocity else None,
+            np.frombuffer(raw, f8, n, e)[index].astype(float, copy=False) if n_effort else None,
+        )
+
+
+class ArmJointStateWriter:
+    """Serialized output JointStates of one arm: its 7 names, stamp, q, q̇ and one torque each."""
+
+    def __init__(self, joint_names: Sequence[str]) -> None:
+        zeros = [0.0] * len(joint_names)
+        template = JointState(name=list(joint_names), position=zeros, velocity=zeros, effort=zeros)
+        self._template = bytes(serialize_message(template))
+        layout = _parse_layout(self._template, ros1=False, n_arrays=N_ARRAYS)
+        self._stamp = struct.Struct(layout.endian + "iI")
+        self._stamp_offset = layout.stamp_offset
+        self._dtype = layout.endian + "f8"
+        self._spans = [slice(offset, offset + 8 * n) for offset, n in layout.arrays]
+
+    def messages(self, torques: ModelTorques) -> tuple[bytes, bytes, bytes | None]:
+        """CDR bytes of the gravity, inverse-dynamics and residual messages (residual None without effort)."""
+        position, velocity, effort = self._spans
+        buffer = bytearray(self._template)
+        self._stamp.pack_into(buffer, self._stamp_offset, *divmod(torques.stamp_ns, 1_000_000_000))
+        buffer[position] = torques.q.astype(self._dtype).tobytes()
+        buffer[velocity] = torques.qd.astype(self._dtype).tobytes()
+        out = []
+        for torque in (torques.gravity, torques.tau, torques.residual):
+            if torque is None:
+                out.append(None)
+                continue
+            buffer[effort] = torque.astype(self._dtype).tobytes()
+            out.append(bytes(buffer))
+        return out[0], out[1], out[2]
+
+
+def diagnostic_array(report: HealthReport, *, name: str, hardware_id: str, stamp: Time) -> DiagnosticArray:
+    """/diagnostics message holding one status built from ``report``."""
+    status = DiagnosticStatus(
+        level=bytes([report.level.value]),
+        name=name,
+        message=report.message,
+        hardware_id=hardware_id,
+        values=[KeyValue(key=key, value=value) for key, value in report.values],
+    )
+    msg = DiagnosticArray(status=[status])
+    msg.header.stamp = stamp
+    return msg

@@ -1,0 +1,248 @@
+"""The node's per-sample pipeline, health report and settings, without ROS.
+
+The pipeline is checked against the core called directly (and Pinocchio for τ), the estimators
+against their batch forms, every skip cause against its documented effect on the estimator.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from reference_models import assert_close, pinocchio_from_arm, random_states
+
+from baxter_dynamics_ros import load_arm_model
+from baxter_dynamics_ros.acceleration import FirstDifference, LowPassDifferentiator, first_difference
+from baxter_dynamics_ros.errors import SettingsError
+from baxter_dynamics_ros.node_settings import NodeSettings
+from baxter_dynamics_ros.residuals import (
+    ArmSample,
+    Health,
+    HealthMonitor,
+    ModelTorques,
+    ResetCause,
+    ResidualPipeline,
+    SkipReason,
+    make_estimator,
+)
+
+REPO = Path(__file__).resolve().parent.parent
+ARM = load_arm_model("right")
+N = 60
+DT_NS = 10_000_000  # 100 Hz
+T0_NS = 1_700_000_000_000_000_000
+TOL = 1e-9
+
+
+@pytest.fixture(scope="module")
+def states() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """stamps_ns (N,) with jitter, q, qd, effort (N, 7)."""
+    q, qd, _ = random_states(ARM, N, seed=0, qdd_max_rad_s2=1.0)
+    rng = np.random.default_rng(1)
+    stamps = T0_NS + np.cumsum(rng.integers(8_000_000, 12_000_000, N))
+    return stamps, q, qd, rng.normal(0.0, 5.0, (N, 7))
+
+
+def run(pipeline: ResidualPipeline, stamps, q, qd, effort) -> list[ModelTorques | SkipReason]:
+    return [
+        pipeline.process(ArmSample(int(stamps[k]), q[k], None if qd is None else qd[k], None if effort is None else effort[k]))
+        for k in range(len(stamps))
+    ]
+
+
+def stacked(results: list, field: str) -> np.ndarray:
+    return np.array([getattr(r, field) for r in results])
+
+
+def test_outputs_are_the_core_with_the_lowpass_estimator_on_the_stamps(states) -> None:
+    stamps, q, qd, effort = states
+    results = run(ResidualPipeline(ARM, "lowpass", 7.0), stamps, q, qd, effort)
+    qdd = LowPassDifferentiator(7.0).run(qd, (stamps - stamps[0]) * 1e-9)
+    tau = ARM.inverse_dynamics(q, qd, qdd)
+    assert_close(stacked(results, "qdd"), qdd, "q̈", atol=1e-9)
+    assert_close(stacked(results, "gravity"), ARM.gravity(q), "G", atol=TOL)
+    assert_close(stacked(results, "tau"), tau, "τ", atol=TOL)
+    assert_close(stacked(results, "residual"), effort - tau, "residual", atol=TOL)
+    np.testing.assert_array_equal(stacked(results, "stamp_ns"), stamps)
+    np.testing.assert_array_equal(stacked(results, "qd"), qd)
+    assert not any(r.qd_from_positions for r in results)
+
+
+def test_tau_and_gravity_agree_with_pinocchio(states) -> None:
+    stamps, q, qd, effort = states
+    results = run(ResidualPipeline(ARM), stamps, q, qd, effort)
+    pin_arm = pinocchio_from_arm(ARM)
+    qdd = stacked(results, "qdd")
+    assert_close(stacked(results, "tau"), np.array([pin_arm.rnea(*x) for x in zip(q, qd, qdd)]), "τ", rtol=1e-9)
+    assert_close(stacked(results, "gravity"), np.array([pin_arm.gravity(x) for x in q]), "G", rtol=1e-9)
+
+
+def test_first_difference_estimator_is_the_papers_difference(states) -> None:
+    stamps, q, qd, effort = states
+    results = run(ResidualPipeline(ARM, "first_difference"), stamps, q, qd, effort)
+    expected = first_difference(qd, (stamps - stamps[0]) * 1e-9)
+    assert_close(stacked(results, "qdd"), expected, "q̈", rtol=1e-9)
+    fd = FirstDifference()
+    assert np.all(fd.update(qd[0], 0.0) == 0)
+    with pytest.raises(ValueError, match="dt_s"):
+        fd.update(qd[1], 0.0)
+
+
+def test_without_effort_there_is_no_residual(states) -> None:
+    stamps, q, qd, _ = states
+    results = run(ResidualPipeline(ARM), stamps[:5], q, qd, None)
+    assert all(isinstance(r, ModelTorques) and r.residual is None for r in results)
+
+
+def test_without_velocity_it_is_differenced_from_positions_after_one_warm_up_sample(states) -> None:
+    stamps, q, _, effort = states
+    results = run(ResidualPipeline(ARM), stamps, q, None, effort)
+    assert results[0] is SkipReason.VELOCITY_WARM_UP and not SkipReason.VELOCITY_WARM_UP.is_fault
+    qd = np.diff(q, axis=0) / (np.diff(stamps) * 1e-9)[:, None]
+    assert_close(stacked(results[1:], "qd"), qd, "q̇", rtol=1e-12)
+    qdd = LowPassDifferentiator(10.0).run(qd, (stamps[1:] - stamps[1]) * 1e-9)
+    assert_close(stacked(results[1:], "tau"), ARM.inverse_dynamics(q[1:], qd, qdd), "τ", atol=TOL)
+    assert all(r.qd_from_positions for r in results[1:])
+
+
+@pytest.mark.parametrize("field", ["q", "qd", "effort"])
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+def test_non_finite_input_is_skipped_without_touching_the_state(states, field: str, bad: float) -> None:
+    stamps, q, qd, effort = states
+    spoilt = {"q": q.copy(), "qd": qd.copy(), "effort": effort.copy()}
+    spoilt[field][3, 4] = bad
+    pipeline = ResidualPipeline(ARM)
+    results = run(pipeline, stamps[:8], spoilt["q"], spoilt["qd"], spoilt["effort"])
+    assert results[3] is SkipReason.NON_FINITE_INPUT
+    keep = [0, 1, 2, 4, 5, 6, 7]
+    qdd = LowPassDifferentiator(10.0).run(qd[keep], (stamps[keep] - stamps[0]) * 1e-9)
+    assert_close(stacked([results[k] for k in keep], "qdd"), qdd, "q̈ of the good samples", atol=1e-9)
+
+
+def test_duplicate_stamp_is_skipped_and_backwards_stamp_resets(states) -> None:
+    stamps, q, qd, effort = states
+    pipeline = ResidualPipeline(ARM)
+    run(pipeline, stamps[:5], q, qd, effort)
+    assert pipeline.process(ArmSample(int(stamps[4]), q[5], qd[5], effort[5])) is SkipReason.DUPLICATE_STAMP
+    assert pipeline.process(ArmSample(int(stamps[3]), q[5], qd[5], effort[5])) is SkipReason.STAMP_BACKWARDS
+    # After the reset even an earlier stamp starts afresh, with q̈ = 0.
+    restart = pipeline.process(ArmSample(int(stamps[0]), q[6], qd[6], effort[6]))
+    assert isinstance(restart, ModelTorques) and np.all(restart.qdd == 0)
+
+
+def test_non_finite_dynamics_skips_and_resets(states) -> None:
+    stamps, q, qd, effort = states
+    pipeline = ResidualPipeline(ARM)
+    run(pipeline, stamps[:5], q, qd, effort)
+    huge = qd[5].copy()
+    huge[1] = 1e200  # finite, but C(q, q̇) ~ q̇² overflows
+    assert pipeline.process(ArmSample(int(stamps[5]), q[5], huge, effort[5])) is SkipReason.NON_FINITE_MODEL
+    after = pipeline.process(ArmSample(int(stamps[6]), q[6], qd[6], effort[6]))
+    assert isinstance(after, ModelTorques) and np.all(after.qdd == 0) and np.all(np.isfinite(after.tau))
+
+
+def test_reset_and_configure_restart_the_estimator(states) -> None:
+    stamps, q, qd, effort = states
+    pipeline = ResidualPipeline(ARM)
+    run(pipeline, stamps[:5], q, qd, effort)
+    pipeline.reset()
+    assert np.all(pipeline.process(ArmSample(int(stamps[5]), q[5], qd[5], effort[5])).qdd == 0)
+    pipeline.configure("first_difference", 1.0)
+    assert np.all(pipeline.process(ArmSample(int(stamps[6]), q[6], qd[6], effort[6])).qdd == 0)
+    second = pipeline.process(ArmSample(int(stamps[7]), q[7], qd[7], effort[7]))
+    assert_close(second.qdd[None], ((qd[7] - qd[6]) / ((stamps[7] - stamps[6]) * 1e-9))[None], "q̈", rtol=1e-12)
+
+
+def test_make_estimator_refuses_unknown_names_and_bad_cutoffs() -> None:
+    assert isinstance(make_estimator("lowpass", 3.0), LowPassDifferentiator)
+    assert isinstance(make_estimator("first_difference", 3.0), FirstDifference)
+    with pytest.raises(SettingsError, match="estimator: expected one of lowpass, first_difference"):
+        make_estimator("kalman", 3.0)
+    with pytest.raises(SettingsError, match="cutoff_hz"):
+        make_estimator("lowpass", -1.0)
+
+
+# ----------------------------------------------------------------------------- health
+def _torques(residual: np.ndarray | None, qd_from_positions: bool = False) -> ModelTorques:
+    z = np.zeros(7)
+    return ModelTorques(0, z, z, z, z, z, residual, qd_from_positions)
+
+
+def _values(report) -> dict[str, str]:
+    return dict(report.values)
+
+
+def test_health_ok_with_rate_latency_and_residual_rms() -> None:
+    monitor = HealthMonitor(ARM.joint_names, "/robot/joint_states")
+    residuals = np.random.default_rng(1).normal(0, 2, (50, 7))
+    for k, r in enumerate(residuals):
+        monitor.record(_torques(r), latency_ns=1000 * (k + 1))
+    report = monitor.report(0.5)
+    values = _values(report)
+    assert report.level is Health.OK and "100.0 Hz" in report.message
+    assert values["input_rate_hz"] == "100.0" and values["samples_published"] == "50"
+    assert float(values["latency_mean_us"]) == pytest.approx(25.5) and float(values["latency_max_us"]) == 50.0
+    rms = np.sqrt(np.mean(residuals**2, axis=0))
+    got = [float(values[f"residual_rms_nm.{j}"]) for j in ARM.joint_names]
+    np.testing.assert_allclose(got, rms, rtol=1e-3)
+
+
+def test_health_levels() -> None:
+    monitor = HealthMonitor(ARM.joint_names, "/robot/joint_states")
+    report = monitor.report(1.0)
+    assert report.level is Health.WARN and "no joint states on /robot/joint_states" in report.message
+    assert _values(report)["residual_rms_nm.right_s0"] == "n/a"
+
+    for _ in range(3):
+        monitor.record(SkipReason.MISSING_JOINT, 10)
+    report = monitor.report(1.0)
+    assert report.level is Health.ERROR and "missing_joint: 3" in report.message
+
+    monitor.record(SkipReason.VELOCITY_WARM_UP, 10)
+    assert monitor.report(1.0).level is Health.WARN  # expected once: not an error
+
+    monitor.record(SkipReason.DUPLICATE_STAMP, 10)
+    monitor.record(_torques(np.ones(7)), 10)
+    report = monitor.report(1.0)
+    assert report.level is Health.WARN and "1 of 2 samples skipped (duplicate_stamp: 1)" in report.message
+
+    monitor.record(_torques(None, qd_from_positions=True), 10)
+    report = monitor.report(1.0)
+    assert report.level is Health.WARN and "no effort" in report.message
+    assert _values(report)["velocity_from_positions"] == "1"
+
+    monitor.record_reset(ResetCause.CLOCK_JUMP)
+    values = _values(monitor.report(1.0))
+    assert values["skipped_total.missing_joint"] == "3" and values["skipped.missing_joint"] == "0"
+    assert values["skipped_total.duplicate_stamp"] == "1" and values["resets_total.clock_jump"] == "1"
+
+
+# ----------------------------------------------------------------------------- settings
+def test_settings_defaults_are_the_packaged_parameters_file() -> None:
+    raw = yaml.safe_load((REPO / "config" / "baxter_dynamics.yaml").read_text())
+    params = raw["/**"]["ros__parameters"]
+    defaults = {f.name: f.default for f in NodeSettings.fields()}
+    assert params == defaults
+    assert all(type(params[k]) is type(v) for k, v in defaults.items())  # 10.0 stays a float
+    assert {f.name for f in NodeSettings.fields() if f.metadata["live"]} == {"estimator", "cutoff_hz"}
+
+
+@pytest.mark.parametrize(
+    ("changes", "match"),
+    [
+        ({"arm": "middle"}, "arm: expected 'right' or 'left'"),
+        ({"effects_file": "fx.yaml"}, "effects_file: .* not supported yet"),
+        ({"joint_states_topic": ""}, "joint_states_topic"),
+        ({"qos_depth": 0}, "qos_depth"),
+        ({"estimator": "kalman"}, "estimator"),
+        ({"cutoff_hz": 0.0}, "cutoff_hz"),
+        ({"cutoff_hz": math.nan}, "cutoff_hz"),
+        ({"diagnostics_period_s": -1.0}, "diagnostics_period_s"),
+    ],
+)
+def test_settings_refuse_bad_values_naming_the_field(changes: dict, match: str) -> None:
+    with pytest.raises(SettingsError, match=match):
+        NodeSettings().replace(**changes)
