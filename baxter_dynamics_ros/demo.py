@@ -8,6 +8,7 @@
    publishes on ``~/residual``.
 4. ``process`` of the same bag (zero-phase q̈) and a plot of measured and modelled torques.
 5. ``diagnose``: where the gap lies, which effects cause it, how far it shrinks on the test bag.
+6. The node again, now with the diagnosis' ``effects.yaml``: the residual it publishes shrinks.
 
 Every ROS process runs on a private, local ROS graph (:mod:`baxter_dynamics_ros.ros_env`). Outputs
 go to ``out/demo`` (or ``--out``), replaced on each run; nothing else is written.
@@ -87,15 +88,15 @@ def simulate_recordings(out: Path) -> dict[str, Path]:
     return paths
 
 
-def live_node(bag: Path, out: Path) -> None:
-    """Step 3: the node on simulated time, the bag played into it, ~/residual shown."""
+def live_node(bag: Path, effects_file: Path | None = None) -> np.ndarray:
+    """The node on simulated time, the bag played into it; returns ~/residual (N, 7) as received."""
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
     from sensor_msgs.msg import JointState
 
-    _say("\n3. The node (python -m baxter_dynamics_ros.node, use_sim_time) with the test bag played into it")
+    extra = [] if effects_file is None else ["-p", f"effects_file:={effects_file}"]
     node_proc = subprocess.Popen(
-        [sys.executable, "-m", "baxter_dynamics_ros.node", "--ros-args", "-p", "arm:=right", "-p", "use_sim_time:=true"],
+        [sys.executable, "-m", "baxter_dynamics_ros.node", "--ros-args", "-p", "arm:=right", "-p", "use_sim_time:=true", *extra],
         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
     )
     context = rclpy.Context()
@@ -132,13 +133,20 @@ def live_node(bag: Path, out: Path) -> None:
             node_proc.kill()
     if player is not None and player.returncode != 0:
         _say(f"   play failed: {(player.stderr.read() or '').strip().splitlines()[-1:]}")
-    _say(f"   received {len(received)} messages on /baxter_dynamics/residual (measured effort − model τ, N·m); every 400th:")
-    for msg in received[::400]:
-        stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
-        _say(f"   t = {stamp:8.2f} s  " + " ".join(f"{v:7.3f}" for v in msg.effort))
-    if received:
-        residual = np.array([m.effort for m in received])
-        _say("   RMS per joint " + " ".join(f"{v:7.3f}" for v in np.sqrt(np.mean(residual**2, axis=0))) + "  (s1: the spring the model lacks)")
+    return np.array([m.effort for m in received]).reshape(-1, 7), [m.header.stamp for m in received]
+
+
+def show_live_residual(bag: Path) -> np.ndarray:
+    """Step 3: the rigid-body node on the test bag; a few of its ~/residual messages."""
+    _say("\n3. The node (python -m baxter_dynamics_ros.node, use_sim_time) with the test bag played into it")
+    residual, stamps = live_node(bag)
+    _say(f"   received {len(residual)} messages on /baxter_dynamics/residual (measured effort − model τ, N·m); every 400th:")
+    first = stamps[0].sec + stamps[0].nanosec * 1e-9 if stamps else 0.0
+    for effort, stamp in list(zip(residual, stamps))[::400]:
+        _say(f"   t = {stamp.sec + stamp.nanosec * 1e-9 - first:6.2f} s  " + " ".join(f"{v:7.3f}" for v in effort))
+    rms = np.sqrt(np.mean(residual**2, axis=0)) if len(residual) else np.full(7, np.nan)
+    _say("   RMS per joint  " + " ".join(f"{v:7.3f}" for v in rms) + "  (s1: the spring the model lacks)")
+    return rms
 
 
 def process_and_plot(bag: Path, out: Path) -> Path:
@@ -187,6 +195,16 @@ def diagnosis(paths: dict[str, Path], out: Path) -> Path:
     return target / "report.html"
 
 
+def compensated_node(bag: Path, effects_file: Path, rigid_rms: np.ndarray) -> None:
+    """Step 6: the node with the identified effects compensated, on the same test bag."""
+    _say(f"\n6. The node again with -p effects_file:={effects_file}")
+    residual, _ = live_node(bag, effects_file)
+    rms = np.sqrt(np.mean(residual**2, axis=0)) if len(residual) else np.full(7, np.nan)
+    _say("   ~/residual RMS per joint [N·m]   " + " ".join(f"{n:>7}" for n in ("s0", "s1", "e0", "e1", "w0", "w1", "w2")))
+    _say("   rigid-body model                 " + " ".join(f"{v:7.3f}" for v in rigid_rms))
+    _say("   with the identified effects      " + " ".join(f"{v:7.3f}" for v in rms))
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m baxter_dynamics_ros.demo", description=__doc__.split("\n", 1)[0])
     parser.add_argument("--out", type=Path, default=Path("out/demo"), help="output folder (default out/demo)")
@@ -199,9 +217,10 @@ def main(argv: list[str] | None = None) -> int:
             os.environ.update(env)
             model_table()
             paths = simulate_recordings(out)
-            live_node(paths["test"], out)
+            rigid_rms = show_live_residual(paths["test"])
             plot = process_and_plot(paths["test"], out)
             report = diagnosis(paths, out)
+            compensated_node(paths["test"], report.parent / "effects.yaml", rigid_rms)
     finally:
         shutil.rmtree(log_dir, ignore_errors=True)
     _say(f"\nDone. Look at {plot} and open {report} in a browser (it works offline).")

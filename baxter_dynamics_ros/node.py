@@ -68,6 +68,7 @@ from std_srvs.srv import Trigger
 from msg_adapters.joint_state import ArmJointStateWriter, JointStateReader, diagnostic_array
 
 from .arm_model import load_arm_model
+from .compensation import load_compensation
 from .errors import BaxterDynamicsError, SettingsError
 from .node_settings import NodeSettings
 from .residuals import SKIP_DESCRIPTIONS, HealthMonitor, ResetCause, ResidualPipeline, SkipReason
@@ -156,7 +157,13 @@ class DynamicsNode(Node):
         self._lock = threading.Lock()  # between the joint-state thread and the executor's callbacks
         self._reader = JointStateReader(arm.joint_names)
         self._writer = ArmJointStateWriter(arm.joint_names)
-        self._pipeline = ResidualPipeline(arm, settings.estimator, settings.cutoff_hz)
+        compensation = load_compensation(arm, settings.effects_file) if settings.effects_file else None
+        if compensation is not None:
+            self.get_logger().info(
+                f"compensating {', '.join(e.name for e in compensation.effects) or 'nothing'} from {settings.effects_file}"
+                + (f"; not compensated live: {', '.join(compensation.ignored)}" if compensation.ignored else "")
+            )
+        self._pipeline = ResidualPipeline(arm, settings.estimator, settings.cutoff_hz, compensation)
         self._skip_loggers = {reason: self.get_logger().get_child(reason.value) for reason in SkipReason}
 
         # No QoS-event handlers on our own topics: these profiles match every peer but a

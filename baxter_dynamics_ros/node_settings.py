@@ -34,8 +34,8 @@ class NodeSettings:
     model_file: str = _setting("", "Arm model YAML to use instead of the built-in model of `arm` (empty: built-in).")
     effects_file: str = _setting(
         "",
-        "Reserved for the effects file of the gap diagnosis (compensation of identified effects); "
-        "not supported yet: must stay empty.",
+        "effects.yaml written by `baxter-dynamics diagnose`: its effects are compensated in the model "
+        "(empty: the rigid-body model alone).",
     )
     joint_states_topic: str = _setting("/robot/joint_states", "Input sensor_msgs/JointState topic.")
     qos_depth: int = _setting(
@@ -55,11 +55,6 @@ class NodeSettings:
     def __post_init__(self) -> None:
         if self.arm not in ("right", "left"):
             raise SettingsError(f"arm: expected 'right' or 'left', got {self.arm!r}")
-        if self.effects_file:
-            raise SettingsError(
-                f"effects_file: compensating identified effects is not supported yet (got {self.effects_file!r}); "
-                "leave it empty"
-            )
         if not self.joint_states_topic:
             raise SettingsError("joint_states_topic: must not be empty (default /robot/joint_states)")
         if self.qos_depth < 1:

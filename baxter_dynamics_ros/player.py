@@ -32,6 +32,10 @@ QUEUE_DEPTH = 100
 SETTLE_S = 1.0
 
 
+#: How long the publishers stay up after the last message, s.
+LINGER_S = 0.5
+
+
 class BagPlayer(Node):
     """Publishes JointState bytes on their recorded topics and the recorded time on /clock."""
 
@@ -92,6 +96,9 @@ def play(
                     time.sleep(delay_s)
                 node.publish(topic, receive_ns, raw)
             if not loop:
+                # Keep the writers up a moment: the node reads best effort, and the last samples
+                # still in flight would be dropped with the publishers.
+                time.sleep(LINGER_S)
                 return 0
     except (KeyboardInterrupt, ExternalShutdownException):
         return 0

@@ -17,6 +17,8 @@ into G(q), τ and the residual, or into a :class:`SkipReason` (the message reade
    ``cutoff_hz``) or ``first_difference`` (the paper's raw difference); q̈ = 0 on the first sample
    after a (re)start;
 5. τ = M(q) q̈ + C(q, q̇) + G(q) (eq. 1) and G(q) = τ(q, 0, 0) from one call of the compiled core;
+   with an effects file, of the compensated model (:mod:`baxter_dynamics_ros.compensation`: the
+   inertial effects in M, C, G, the others' share of the effort added to τ);
    if either holds NaN/inf, or the residual does, the estimator (whose state holds the same
    values) is reset and the sample skipped (``non_finite_model``);
 6. residual = measured effort − τ, or None when the message has no effort.
@@ -41,6 +43,7 @@ import numpy as np
 
 from .acceleration import FirstDifference, LowPassDifferentiator
 from .arm_model import ArmModel
+from .compensation import Compensation
 from .errors import SettingsError
 from .node_settings import ESTIMATORS
 
@@ -140,8 +143,11 @@ def _all_finite(x: np.ndarray | None) -> bool:
 class ResidualPipeline:
     """G, τ and residual of one arm, one sample at a time (see the module docstring for the steps)."""
 
-    def __init__(self, arm: ArmModel, estimator: str = "lowpass", cutoff_hz: float = 10.0) -> None:
-        self.arm = arm
+    def __init__(
+        self, arm: ArmModel, estimator: str = "lowpass", cutoff_hz: float = 10.0, compensation: Compensation | None = None
+    ) -> None:
+        self.compensation = compensation
+        self.arm = arm if compensation is None else compensation.arm
         self._estimator = make_estimator(estimator, cutoff_hz)
         self._last_stamp_ns: int | None = None
         self._last_q: np.ndarray | None = None
@@ -193,6 +199,8 @@ class ResidualPipeline:
         self._qd2[0] = qd
         self._qdd2[0] = qdd
         tau_and_gravity = self._dynamics()
+        if self.compensation is not None:
+            tau_and_gravity[0] += self.compensation.torque(q, qd, qdd)
         residual = None if effort is None else effort - tau_and_gravity[0]
         if not (_all_finite(tau_and_gravity) and _all_finite(residual)):
             self.reset()

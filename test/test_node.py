@@ -84,11 +84,12 @@ class Samples:
 
 
 def expected_torques(
-    arm, stamps_ns, q, qd, effort, estimator: Callable[[], object] = lambda: LowPassDifferentiator(10.0), resets=()
+    arm, stamps_ns, q, qd, effort, estimator: Callable[[], object] = lambda: LowPassDifferentiator(10.0), resets=(), compensation=None
 ) -> dict[str, np.ndarray]:
     """The core's gravity, τ and residual (N, 7) for samples the node accepted in this order.
 
-    The estimator restarts at the samples whose index is in ``resets`` (and at 0)."""
+    The estimator restarts at the samples whose index is in ``resets`` (and at 0). With a
+    compensation, τ and G are those of its model."""
     est = estimator()
     qdd = np.zeros_like(qd)
     for k in range(len(stamps_ns)):
@@ -96,7 +97,9 @@ def expected_torques(
             est.reset()
         dt_s = 0.0 if k == 0 or k in resets else (int(stamps_ns[k]) - int(stamps_ns[k - 1])) * 1e-9
         qdd[k] = est.update(qd[k], dt_s)
-    tau = arm.inverse_dynamics(q, qd, qdd)
+    if compensation is not None:
+        arm = compensation.arm
+    tau = arm.inverse_dynamics(q, qd, qdd) + (0.0 if compensation is None else compensation.torque(q, qd, qdd))
     return {"gravity": arm.gravity(q), "inverse_dynamics": tau, "residual": effort - tau}
 
 
@@ -530,10 +533,38 @@ def test_left_arm_namespaced_from_the_params_file_then_ctrl_c(ros_client, node_p
     assert "Traceback" not in process.output()
 
 
+def test_effects_file_from_the_diagnosis_is_compensated(ros_client, node_processes, tmp_path: Path) -> None:
+    """An effects.yaml as `diagnose` writes it: the residual is taken against the compensated model."""
+    from baxter_dynamics_ros.compensation import load_compensation
+
+    effects = tmp_path / "effects.yaml"
+    effects.write_text(
+        "arm: right\neffects:\n"
+        "  s1_spring: {preload_nm: 20.0, cosine_nm: 12.0, sine_nm: 18.0}\n"
+        "  viscous_friction: {damping_nm_s_rad: [1.0, 1.5, 0.5, 0.5, 0.1, 0.1, 0.05]}\n"
+        "  payload: {mass_kg: 0.5, com_m: [0.0, 0.0, 0.05]}\n"
+        "  delay: {delay_s: 0.01}\n"
+    )
+    process = node_processes.start(
+        ["-p", f"effects_file:={effects}", "-p", "joint_states_topic:=/fx_test/joint_states", "-r", "__ns:=/fx_test"]
+    )
+    node = LiveNode(ros_client, process, namespace="/fx_test", input_topic="/fx_test/joint_states")
+    node.wait_ready(lambda stamp: joint_state(JOINTS, stamp, np.zeros(len(JOINTS)), np.zeros(len(JOINTS)), np.zeros(len(JOINTS))))
+    samples = Samples(30, seed=17)
+    node.send([samples.message(k) for k in range(30)])
+    q, qd, effort = samples.arm(RIGHT.joint_names)
+    compensation = load_compensation(RIGHT, effects)
+    expected = expected_torques(RIGHT, samples.stamps_ns, q, qd, effort, compensation=compensation)
+    node.check(samples.stamps_ns, q, qd, expected, RIGHT.joint_names)
+    assert np.abs(expected["inverse_dynamics"] - expected_torques(RIGHT, samples.stamps_ns, q, qd, effort)["inverse_dynamics"]).max() > 1.0
+    assert process.stop() == 0
+    assert "not compensated live: delay" in process.output()
+
+
 @pytest.mark.parametrize(
     ("args", "field"),
     [
-        (["-p", "effects_file:=effects.yaml"], "effects_file"),
+        (["-p", "effects_file:=/nonexistent/effects.yaml"], "effects.yaml"),
         (["-p", "estimator:=kalman"], "estimator"),
         (["-p", "cutoff_hz:=0.0"], "cutoff_hz"),
         (["-p", "arm:=middle"], "arm"),

@@ -234,7 +234,6 @@ def test_settings_defaults_are_the_packaged_parameters_file() -> None:
     ("changes", "match"),
     [
         ({"arm": "middle"}, "arm: expected 'right' or 'left'"),
-        ({"effects_file": "fx.yaml"}, "effects_file: .* not supported yet"),
         ({"joint_states_topic": ""}, "joint_states_topic"),
         ({"qos_depth": 0}, "qos_depth"),
         ({"estimator": "kalman"}, "estimator"),
