@@ -37,6 +37,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "baxter_dynamics_ros.diagnose_command",
         "where the sim-to-real gap lies, which unmodelled effect causes it, how far it shrinks (held-out)",
     ),
+    "calibrate": (
+        "baxter_dynamics_ros.calibrate_command",
+        "collision thresholds per joint from collision-free recordings (momentum observer), as thresholds.yaml",
+    ),
     "paper-experiment": (
         "baxter_dynamics_ros.paper_experiment",
         "the paper's experiment (Table V, Figs. 5-7) on simulated recordings: L-E and Pinocchio RNEA against the recorded torques",

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-__all__ = ["BaxterDynamicsError", "ModelFileError", "InputShapeError", "RecordingError", "RecordingFileError", "EffectSpecError", "SimulationError", "PlaybackError", "SettingsError", "DiagnosisError"]
+__all__ = ["BaxterDynamicsError", "ModelFileError", "InputShapeError", "RecordingError", "RecordingFileError", "EffectSpecError", "SimulationError", "PlaybackError", "SettingsError", "DiagnosisError", "CollisionError"]
 
 
 class BaxterDynamicsError(Exception):
@@ -43,3 +43,7 @@ class SettingsError(BaxterDynamicsError, ValueError):
 
 class DiagnosisError(BaxterDynamicsError):
     """A gap diagnosis cannot run on the data given (no test data, mixed arms, too little data)."""
+
+
+class CollisionError(BaxterDynamicsError, ValueError):
+    """Collision monitoring cannot run as asked: bad thresholds file, gains or calibration data."""

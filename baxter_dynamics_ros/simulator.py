@@ -25,6 +25,15 @@ clipped to the effort limits. Before t = 0 the arm settles for ``settle_s`` at t
 start (not recorded). None of this changes what is recorded: the effort is the τ_act that
 produced the motion, M q̈ + C + G + every effect's share, whatever the controller.
 
+Collisions (``collisions``, :class:`Collision`): external torques τ_ext on the arm, added to τ_act
+in the plant only (never to the recorded effort, which stays the actuators' torque), evaluated at
+the start of each step and held over it. At the flange, τ_ext = J_v(q)ᵀ F for a force F (base
+frame, N) at the flange origin, J_v the core's flange Jacobian; forces at other links are not
+simulated: give their joint torques directly (``link: joints``, τ_ext = the torque vector). Each
+is scaled by its time profile: ``impact`` a half-sine pulse over ``duration_s``, ``push`` raised-
+cosine ramps of ``ramp_s`` at both ends and full force between. Then the recorded residual
+(effort − rigid model with the true q̈) is −τ_ext.
+
 Recording, every 1 / rate_hz from t = 0 (what Baxter's ``/robot/joint_states`` holds): q quantised
 to ``position_step_rad`` (2π/16384); q̇ plus the white noise of ``acceleration_noise``; effort =
 τ_act (the transmitted torque: rigid body + every effect's share, the spring's negative) delayed by
@@ -69,6 +78,8 @@ from .trajectories import TRAJECTORIES, JointReference, make_reference, seed_pos
 
 __all__ = [
     "BAXTER_JOINT_NAMES",
+    "Collision",
+    "external_torques",
     "START_STAMP_NS",
     "ControllerGains",
     "RobotJointStates",
@@ -172,6 +183,63 @@ class ControllerGains(_Section):
     inner_bandwidth_rad_s: float = 150.0
 
 
+COLLISION_PROFILES = ("impact", "push")
+COLLISION_LINKS = ("flange", "joints")
+
+
+@dataclass(frozen=True)
+class Collision:
+    """An external force or torque on the arm from start_s for duration_s (s, recording time).
+
+    profile: "impact" (half-sine pulse) or "push" (ramps of ramp_s, then held); link: "flange"
+    with force_n (3,) N in the arm's base frame, or "joints" with torque_nm (7,) N·m directly.
+    """
+
+    start_s: float
+    duration_s: float
+    profile: str = "push"
+    link: str = "flange"
+    force_n: tuple[float, ...] = (0.0, 0.0, 0.0)
+    torque_nm: tuple[float, ...] = (0.0,) * N
+    ramp_s: float = 0.02
+
+    def __post_init__(self) -> None:
+        where = "collision"
+        _positive(self.start_s, f"{where}.start_s", allow_zero=True)
+        object.__setattr__(self, "start_s", float(self.start_s))
+        object.__setattr__(self, "duration_s", _positive(self.duration_s, f"{where}.duration_s"))
+        object.__setattr__(self, "ramp_s", _positive(self.ramp_s, f"{where}.ramp_s"))
+        if self.profile not in COLLISION_PROFILES:
+            raise EffectSpecError(f"{where}.profile must be one of {', '.join(COLLISION_PROFILES)}, got {self.profile!r}")
+        if self.link not in COLLISION_LINKS:
+            raise EffectSpecError(f"{where}.link must be one of {', '.join(COLLISION_LINKS)} (forces act at the flange only), got {self.link!r}")
+        for name, size in (("force_n", 3), ("torque_nm", N)):
+            arr = np.array(getattr(self, name), dtype=np.float64)
+            if arr.shape != (size,) or not np.all(np.isfinite(arr)):
+                raise EffectSpecError(f"{where}.{name}: expected {size} finite numbers, got {getattr(self, name)!r}")
+            object.__setattr__(self, name, tuple(float(x) for x in arr))
+        if self.profile == "push" and 2 * self.ramp_s > self.duration_s:
+            raise EffectSpecError(f"{where}: a push needs duration_s >= 2 ramp_s, got {self.duration_s} and {self.ramp_s}")
+
+    @property
+    def end_s(self) -> float:
+        return self.start_s + self.duration_s
+
+    def to_dict(self) -> dict[str, Any]:
+        out = {"start_s": self.start_s, "duration_s": self.duration_s, "profile": self.profile, "link": self.link}
+        if self.link == "flange":
+            out["force_n"] = list(self.force_n)
+        else:
+            out["torque_nm"] = list(self.torque_nm)
+        if self.profile == "push":
+            out["ramp_s"] = self.ramp_s
+        return out
+
+    @classmethod
+    def from_dict(cls, raw: Any, where: str = "collision") -> Collision:
+        return cls(**_fields_from(cls, raw, where))
+
+
 @dataclass(frozen=True)
 class SimulationSpec:
     """Everything that determines a simulated recording (written beside it as JSON).
@@ -179,7 +247,8 @@ class SimulationSpec:
     side: "right" | "left"; trajectory: one of :data:`~baxter_dynamics_ros.trajectories.TRAJECTORIES`;
     duration_s, rate_hz: the recording; seed: noise and random trajectory; effects: the unmodelled
     effects; physics_rate_hz: RK4 rate (None: the smallest multiple of rate_hz ≥ 1 kHz);
-    settle_s: unrecorded time at the start posture before t = 0.
+    settle_s: unrecorded time at the start posture before t = 0; collisions: external forces or
+    torques on the arm (:class:`Collision`).
     """
 
     trajectory: str
@@ -192,6 +261,7 @@ class SimulationSpec:
     controller: ControllerGains = field(default_factory=ControllerGains)
     physics_rate_hz: float | None = None
     settle_s: float = 1.0
+    collisions: tuple[Collision, ...] = ()
 
     def __post_init__(self) -> None:
         if self.trajectory not in TRAJECTORIES:
@@ -204,6 +274,7 @@ class SimulationSpec:
             raise SimulationError(f"seed must be a non-negative integer, got {self.seed!r}")
         object.__setattr__(self, "seed", int(self.seed))
         object.__setattr__(self, "effects", tuple(self.effects))
+        object.__setattr__(self, "collisions", tuple(self.collisions))
         names = [e.name for e in self.effects]
         if len(set(names)) != len(names):
             raise SimulationError(f"each effect may appear once, got {names}")
@@ -232,7 +303,7 @@ class SimulationSpec:
         return int(round(self.duration_s * self.rate_hz))
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        out = {
             "trajectory": self.trajectory,
             "duration_s": self.duration_s,
             "rate_hz": self.rate_hz,
@@ -244,6 +315,9 @@ class SimulationSpec:
             "physics_rate_hz": self.physics_rate_hz,
             "settle_s": self.settle_s,
         }
+        if self.collisions:  # absent without collisions: earlier ground truths stay as they were
+            out["collisions"] = [c.to_dict() for c in self.collisions]
+        return out
 
     @classmethod
     def from_dict(cls, raw: Any) -> SimulationSpec:
@@ -251,6 +325,10 @@ class SimulationSpec:
         kwargs["effects"] = effects_from_dict(kwargs.get("effects"))
         kwargs["sensor"] = SensorModel.from_dict(kwargs.get("sensor"))
         kwargs["controller"] = ControllerGains.from_dict(kwargs.get("controller"))
+        collisions = kwargs.get("collisions") or []
+        if not isinstance(collisions, list):
+            raise EffectSpecError(f"simulation spec: collisions must be a list, got {collisions!r}")
+        kwargs["collisions"] = tuple(Collision.from_dict(c, f"collisions[{i}]") for i, c in enumerate(collisions))
         missing = [k for k in ("trajectory", "duration_s", "rate_hz") if k not in kwargs]
         if missing:
             raise EffectSpecError(f"simulation spec: missing {', '.join(missing)}")
@@ -277,7 +355,8 @@ class SimulationResult:
     qdd_true: the acceleration right after the sample (the step's first RK4 stage, rad/s²);
     tau_actuator: τ_act as applied (no delay, offset, noise or quantisation), N·m; q_ref: the
     reference; x_target (N, 3) the Cartesian target (torso frame, m) or None; other_q,
-    other_effort (7,): the other arm, at rest; saturated_steps: steps with τ_act clipped.
+    other_effort (7,): the other arm, at rest; saturated_steps: steps with τ_act clipped;
+    tau_external: the collisions' τ_ext on the arm right after each sample (zeros without).
     """
 
     spec: SimulationSpec
@@ -295,6 +374,7 @@ class SimulationResult:
     other_q: np.ndarray
     other_effort: np.ndarray
     saturated_steps: int
+    tau_external: np.ndarray
 
     def recording(self) -> Recording:
         """The simulated arm's joint states as a :class:`~baxter_dynamics_ros.recording.Recording`."""
@@ -330,7 +410,20 @@ class SimulationResult:
             "(each effect's share; the s1 spring's share is minus the torque it applies)",
             "tracking_rms_rad": np.sqrt(np.mean(error**2, axis=0)).tolist(),
             "saturated_steps": self.saturated_steps,
+            **({"collisions": self.collision_truth()} if self.spec.collisions else {}),
         }
+
+    def collision_truth(self) -> list[dict[str, Any]]:
+        """Per collision: start_s, end_s, link, profile and the peak |τ_ext| per joint over the
+        recorded samples in its window (N·m, 7; the torque on the arm, −residual)."""
+        t = (self.stamps_ns - self.stamps_ns[0]) * 1e-9
+        truth = []
+        for c in self.spec.collisions:
+            inside = (t >= c.start_s) & (t <= c.end_s)
+            peak = np.abs(self.tau_external[inside]).max(axis=0) if inside.any() else np.zeros(N)
+            truth.append({"start_s": c.start_s, "end_s": c.end_s, "link": c.link, "profile": c.profile,
+                          "peak_joint_torque_nm": peak.tolist()})  # fmt: skip
+        return truth
 
 
 def write_ground_truth(path: str | os.PathLike[str], result: SimulationResult) -> None:
@@ -410,12 +503,36 @@ def _reference(ref_q, ref_qd, ref_dt, t, q_out, qd_out):
 
 
 @njit(cache=True)
+def _external_torque(dh, coll_time, coll_force, coll_torque, t, q, pose, jac, out):
+    """Σ of the collisions' τ_ext at time t (s) and posture q (1, 7), N·m, into out (7,)."""
+    out[:] = 0.0
+    for c in range(coll_time.shape[0]):
+        start, duration, ramp, profile = coll_time[c, 0], coll_time[c, 1], coll_time[c, 2], coll_time[c, 3]
+        s = t - start
+        if s < 0.0 or s > duration:
+            continue
+        if profile == 0.0:
+            scale = np.sin(np.pi * s / duration)
+        else:
+            edge = min(s, duration - s)
+            scale = 1.0 if edge >= ramp else 0.5 - 0.5 * np.cos(np.pi * edge / ramp)
+        lagrange_euler._batch_kinematics(dh, q, pose, jac)
+        for j in range(N):
+            out[j] += scale * (coll_torque[c, j] + jac[0, 0, j] * coll_force[c, 0] + jac[0, 1, j] * coll_force[c, 1] + jac[0, 2, j] * coll_force[c, 2])
+
+
+@njit(cache=True)
 def _run(
     dh, j_true, j_nominal, g, armature, viscous, friction, spring,
     kp, kd, bandwidth, tau_limit, ref_q, ref_qd, ref_dt, q_init, dt, n_settle, every, delay_steps,
-    out_q, out_qd, out_qdd, out_tau, out_tau_late, out_qref,
+    coll_time, coll_force, coll_torque,
+    out_q, out_qd, out_qdd, out_tau, out_tau_late, out_qref, out_ext,
 ):  # fmt: skip
-    """Settle, then control, integrate (RK4) and record; returns (failed step or −1, saturated steps)."""
+    """Settle, then control, integrate (RK4) and record; returns (failed step or −1, saturated steps).
+
+    coll_time (C, 4): start, duration, ramp (s) and profile (0 impact, 1 push) of each collision;
+    coll_force (C, 3) at the flange, coll_torque (C, 7) on the joints.
+    """
     q = q_init.copy().reshape(1, N)
     qd = np.zeros((1, N))
     eps = np.zeros(N)
@@ -428,6 +545,9 @@ def _run(
     n_record = out_q.shape[0]
     total = n_settle + (n_record - 1) * every + 1
     saturated = 0
+    ext = np.zeros((1, N))
+    plant_tau = np.empty((1, N))
+    pose, jac = np.empty((1, 4, 4)), np.empty((1, 6, N))
     for step in range(total):
         t = (step - n_settle) * dt
         _reference(ref_q, ref_qd, ref_dt, t, qr, qdr)
@@ -449,7 +569,12 @@ def _run(
             tau[0, j] = u
         saturated += clipped
         ring[step % ring_len] = tau[0]
-        _acceleration(dh, j_true, g, armature, viscous, friction, spring, q, qd, tau, a1)
+        act = tau
+        if coll_time.shape[0] > 0:
+            _external_torque(dh, coll_time, coll_force, coll_torque, t, q, pose, jac, ext[0])
+            plant_tau[0] = tau[0] + ext[0]
+            act = plant_tau
+        _acceleration(dh, j_true, g, armature, viscous, friction, spring, q, qd, act, a1)
         if step >= n_settle and (step - n_settle) % every == 0:
             k = (step - n_settle) // every
             out_q[k] = q[0]
@@ -457,16 +582,17 @@ def _run(
             out_qdd[k] = a1[0]
             out_tau[k] = tau[0]
             out_qref[k] = qr
+            out_ext[k] = ext[0]
             s = step - delay_steps
             i0 = int(np.floor(s))
             frac = s - i0
             out_tau_late[k] = (1.0 - frac) * ring[i0 % ring_len] + frac * ring[(i0 + 1) % ring_len]
         _acceleration(dh, j_true, g, armature, viscous, friction, spring,
-                      q + 0.5 * dt * qd, qd + 0.5 * dt * a1, tau, a2)  # fmt: skip
+                      q + 0.5 * dt * qd, qd + 0.5 * dt * a1, act, a2)  # fmt: skip
         _acceleration(dh, j_true, g, armature, viscous, friction, spring,
-                      q + 0.5 * dt * qd + 0.25 * dt * dt * a1, qd + 0.5 * dt * a2, tau, a3)  # fmt: skip
+                      q + 0.5 * dt * qd + 0.25 * dt * dt * a1, qd + 0.5 * dt * a2, act, a3)  # fmt: skip
         _acceleration(dh, j_true, g, armature, viscous, friction, spring,
-                      q + dt * qd + 0.5 * dt * dt * a2, qd + dt * a3, tau, a4)  # fmt: skip
+                      q + dt * qd + 0.5 * dt * dt * a2, qd + dt * a3, act, a4)  # fmt: skip
         q = q + dt * qd + dt * dt / 6.0 * (a1 + a2 + a3)
         qd = qd + dt / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
         if not np.all(np.isfinite(qd)):
@@ -475,6 +601,27 @@ def _run(
 
 
 # ----------------------------------------------------------------------------- assembling a run
+def _collision_arrays(collisions: tuple[Collision, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The compiled loop's (C, 4) timing, (C, 3) flange force and (C, 7) joint torque arrays."""
+    timing = np.array([[c.start_s, c.duration_s, c.ramp_s, COLLISION_PROFILES.index(c.profile)] for c in collisions]).reshape(-1, 4)
+    force = np.array([c.force_n if c.link == "flange" else (0.0,) * 3 for c in collisions]).reshape(-1, 3)
+    torque = np.array([c.torque_nm if c.link == "joints" else (0.0,) * N for c in collisions]).reshape(-1, N)
+    return timing, force, torque
+
+
+def external_torques(arm: ArmModel, collisions: tuple[Collision, ...], t_s: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """τ_ext (N, 7) N·m of ``collisions`` at times t_s (N,) s and postures q (N, 7) rad, as the plant gets it."""
+    timing, force, torque = _collision_arrays(tuple(collisions))
+    q = np.ascontiguousarray(q, dtype=np.float64).reshape(-1, N)
+    out = np.zeros_like(q)
+    pose, jac = np.empty((1, 4, 4)), np.empty((1, 6, N))
+    dh = np.ascontiguousarray(arm.dh)
+    for k in range(len(q)):
+        _external_torque(dh, timing, force, torque, float(t_s[k]), q[k : k + 1], pose, jac, out[k])
+    return out
+
+
+
 class _Plant(NamedTuple):
     j_true: np.ndarray
     armature: np.ndarray
@@ -558,12 +705,15 @@ def simulate(spec: SimulationSpec, arm: ArmModel | None = None, reference: Joint
     delay = spec.effect(Delay)
     delay_steps = 0.0 if delay is None else delay.delay_s / dt
     out = {k: np.empty((n, N)) for k in ("q", "qd", "qdd", "tau", "tau_late", "qref")}
+    out["ext"] = np.zeros((n, N))
+    coll_time, coll_force, coll_torque = _collision_arrays(spec.collisions)
     failed, saturated = _run(
         np.ascontiguousarray(arm.dh), plant.j_true, np.ascontiguousarray(arm.pseudo_inertias), np.array(arm.gravity_m_s2),
         plant.armature, plant.viscous, plant.friction, plant.spring,
         gains.outer_kp_1_s, gains.outer_kd, gains.inner_bandwidth_rad_s, np.array(arm.effort_limit_nm), np.ascontiguousarray(reference.q), np.ascontiguousarray(reference.qd),
         reference.dt_s, q_init, dt, int(round(spec.settle_s / dt)), every, delay_steps,
-        out["q"], out["qd"], out["qdd"], out["tau"], out["tau_late"], out["qref"],
+        coll_time, coll_force, coll_torque,
+        out["q"], out["qd"], out["qdd"], out["tau"], out["tau_late"], out["qref"], out["ext"],
     )  # fmt: skip
     if failed >= 0:
         raise SimulationError(f"the simulation diverged at t = {failed * dt - spec.settle_s:.3f} s; lower the effects' stiffness or raise physics_rate_hz")
@@ -614,4 +764,5 @@ def _record(arm: ArmModel, spec: SimulationSpec, reference: JointReference, out:
         other_q=other_q,
         other_effort=_quantise(other_effort, step_nm),
         saturated_steps=int(saturated),
+        tau_external=out["ext"],
     )

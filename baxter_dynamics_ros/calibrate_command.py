@@ -1,0 +1,74 @@
+"""``baxter-dynamics calibrate FILES... --out thresholds.yaml``: collision thresholds from collision-free data.
+
+Runs the momentum observer (:mod:`baxter_dynamics_ros.collision`, gain ``--gain``) over every file,
+with the effects of ``--effects`` compensated, and writes per-joint thresholds a + b|q̇| by the
+calibration rule of that module (``--margin``; ``--constant`` for b = 0). The recordings must be
+free of contacts: every residual they hold is taken as normal. Never imports rclpy.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from .errors import CollisionError, RecordingFileError
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The command's options."""
+    from msg_adapters.bag_io import DEFAULT_TOPIC
+    from msg_adapters.csv_io import DEFAULT_RATE_HZ
+
+    from .collision import DEFAULT_GAIN_1_S
+
+    parser.add_argument("files", type=Path, nargs="+", metavar="FILE", help="collision-free recordings (bags or tables)")
+    parser.add_argument("--out", "-o", type=Path, required=True, metavar="YAML", help="thresholds file to write")
+    parser.add_argument("--effects", type=Path, metavar="YAML", help="effects file from `diagnose` to compensate")
+    parser.add_argument("--gain", type=float, default=DEFAULT_GAIN_1_S, metavar="1/S", help=f"observer gain K_O (default {DEFAULT_GAIN_1_S:g})")
+    parser.add_argument("--margin", type=float, default=1.5, help="thresholds = margin x the largest residual (default 1.5)")
+    parser.add_argument("--constant", action="store_true", help="no speed-dependent part")
+    parser.add_argument("--arm", choices=("right", "left"), help="arm (default: from the joint names)")
+    parser.add_argument("--model", type=Path, metavar="YAML", help="arm model file (default: the package's model of the arm)")
+    parser.add_argument("--topic", default=DEFAULT_TOPIC, help=f"joint-state topic of bags (default {DEFAULT_TOPIC})")
+    parser.add_argument("--rate", type=float, default=DEFAULT_RATE_HZ, help=f"sample rate of tables without time column, Hz (default {DEFAULT_RATE_HZ:g})")
+    parser.add_argument("--force", action="store_true", help="replace an existing thresholds file")
+
+
+def _check_paths(files: list[Path], out: Path, force: bool) -> None:
+    for path in files:
+        if not path.exists():
+            raise RecordingFileError(f"{path}: no such file or folder")
+        if path.resolve() == out.resolve():
+            raise CollisionError(f"{out}: refusing to write over the input {path}; choose another --out")
+    if out.suffix not in (".yaml", ".yml"):
+        raise CollisionError(f"{out}: the thresholds file must end in .yaml")
+    if not out.parent.is_dir():
+        raise CollisionError(f"{out}: the folder {out.parent} does not exist")
+    if out.exists() and not force:
+        raise CollisionError(f"{out}: exists already; choose another --out or pass --force")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Calibrate and write args.out; returns 0 (errors raise BaxterDynamicsError)."""
+    from msg_adapters.recording_files import read_recording
+
+    from .arm_model import load_arm_model
+    from .collision import calibrate_thresholds, observe, write_thresholds
+    from .compensation import load_compensation
+
+    _check_paths(args.files, args.out, args.force)
+    recordings = [read_recording(p, topic=args.topic, arm=args.arm, rate_hz=args.rate) for p in args.files]
+    sides = {rec.side for rec in recordings}
+    if len(sides) > 1:
+        raise CollisionError("the recordings are of different arms; pass --arm right|left")
+    arm = load_arm_model(args.model if args.model is not None else sides.pop())
+    compensation = None if args.effects is None else load_compensation(arm, args.effects)
+    residuals = [observe(arm, rec, args.gain, compensation) for rec in recordings]
+    thresholds = calibrate_thresholds(
+        residuals, [rec.qd for rec in recordings], margin=args.margin, speed_dependent=not args.constant,
+        gain_1_s=args.gain, files=[str(p) for p in args.files],
+    )  # fmt: skip
+    write_thresholds(args.out, thresholds)
+    joints = "  ".join(f"{j.split('_', 1)[-1]} {a:.2f}+{b:.2f}|q̇|" for j, a, b in zip(arm.joint_names, thresholds.offset_nm, thresholds.slope_nm_s_rad))
+    print(f"{args.out}: thresholds [N·m] {joints}")
+    return 0

@@ -1,0 +1,347 @@
+"""Collision monitoring: a momentum observer, calibrated per-joint thresholds, a hysteresis detector.
+
+Residual sign: as ``~/residual``, measured effort − model, so an external torque τ_ext acting on
+the arm (M q̈ + C + G = τ_motor + τ_ext) shows as r ≈ −τ_ext.
+
+Generalised-momentum observer (De Luca et al.), needing no q̈. With p = M(q) q̇ and the identity
+ṗ = M q̈ + Ṁ q̇ = τ_motor + τ_ext + Cᵀ(q, q̇) q̇ − G(q), where Cᵀ q̇ = Ṁ q̇ − C(q, q̇) q̇:
+
+    r(t) = K_O [ ∫₀ᵗ (τ_meas + Cᵀ q̇ − G − r) ds − (p(t) − p(0)) ],   so ṙ = K_O (d − r),
+
+d = τ_meas − τ_rigid the unmodelled torque (= −τ_ext): r follows d through a first-order lag of
+time constant 1/K_O (K_O per joint, 1/s). This is the textbook observer with the sign of r flipped
+to the residual's convention. Ṁ q̇ is exact up to O(ε²): Ṁ = (M(q + ε q̇) − M(q − ε q̇)) / (2ε),
+ε = :data:`MDOT_STEP_S`, from the core's ``mass_matrix``; C(q, q̇) q̇ is the core's ``coriolis``.
+Discretisation, per sample k with its own Δt_k (backward Euler in r, so stable for any K_O Δt):
+
+    I_k = I_{k−1} + (β_k − r_k) Δt_k,  β = τ_meas + Cᵀ q̇ − G,  r_k = K_O (I_k − (p_k − p_0))
+    ⇒ r_k = K_O (I_{k−1} + β_k Δt_k − (p_k − p_0)) / (1 + K_O Δt_k);  r_0 = 0.
+
+With a :class:`~baxter_dynamics_ros.compensation.Compensation`, the model is its ``arm`` and τ_meas
+has the additive effects' share at q̈ = 0 removed (q̈-dependent shares, armature, are not).
+
+Public scheme (as in public Baxter code): r = τ_meas − τ(q, q̇, 0) against
+:data:`PUBLIC_THRESHOLDS_NM`, a collision on any sample above (:func:`public_residual`,
+:func:`public_detector`).
+
+Calibration rule (:func:`calibrate_thresholds`) from collision-free observer residuals r (N, 7):
+per joint, a_j = margin · max |r_j| over the samples with |q̇_j| ≤ ``slow_rad_s`` (all samples if
+none), b_j = max over all samples of (margin · |r_j| − a_j) / |q̇_j| (≥ 0; 0 when not speed
+dependent, then a_j = margin · max |r_j|), and a_j raised to ``floor_nm`` at least; the threshold
+is a_j + b_j |q̇_j|, above margin · |r_j| on every calibration sample.
+
+Detector (:class:`CollisionDetector`): on when some |r_j| > threshold_j for ≥ ``consecutive``
+samples in a row; off once every |r_j| < ``release_fraction`` · threshold_j for ``hold_s``.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any, NamedTuple
+
+import numpy as np
+import yaml
+
+from .arm_model import ArmModel
+from .compensation import Compensation
+from .errors import CollisionError
+from .recording import JOINT_SUFFIXES, Recording
+
+__all__ = [
+    "DEFAULT_GAIN_1_S",
+    "MDOT_STEP_S",
+    "PUBLIC_THRESHOLDS_NM",
+    "CollisionDetector",
+    "DetectorState",
+    "MomentumObserver",
+    "Thresholds",
+    "calibrate_thresholds",
+    "detect",
+    "momentum_terms",
+    "observe",
+    "public_detector",
+    "public_residual",
+    "read_thresholds",
+    "write_thresholds",
+]
+
+N = 7
+#: Default observer gain K_O, 1/s (time constant 33 ms).
+DEFAULT_GAIN_1_S = 30.0
+#: Time step of the central difference giving Ṁ along q̇, s.
+MDOT_STEP_S = 1e-6
+#: The fixed thresholds of public Baxter code, s0 … w2, N·m.
+PUBLIC_THRESHOLDS_NM = (10.0, 10.0, 5.0, 4.5, 2.0, 2.0, 1.0)
+
+
+# ----------------------------------------------------------------------------- observer
+def _gain(gain_1_s: float | Sequence[float]) -> np.ndarray:
+    k = np.broadcast_to(np.asarray(gain_1_s, dtype=np.float64), (N,)).copy()
+    if not np.all(np.isfinite(k)) or np.any(k <= 0):
+        raise CollisionError(f"observer gain must be > 0 1/s per joint (a number or 7), got {gain_1_s!r}")
+    return k
+
+
+def _model(arm: ArmModel, compensation: Compensation | None) -> ArmModel:
+    return arm if compensation is None else compensation.arm
+
+
+def momentum_terms(
+    arm: ArmModel, q: np.ndarray, qd: np.ndarray, effort: np.ndarray, compensation: Compensation | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """p = M(q) q̇ (kg·m²/s) and β = τ_meas + Cᵀ(q, q̇) q̇ − G(q) (N·m), both (M, 7), for (M, 7) inputs."""
+    model = _model(arm, compensation)
+    if compensation is not None:
+        effort = effort - compensation.torque(q, qd, np.zeros_like(q))
+    m = model.mass_matrix(q)
+    m_dot = (model.mass_matrix(q + MDOT_STEP_S * qd) - model.mass_matrix(q - MDOT_STEP_S * qd)) / (2.0 * MDOT_STEP_S)
+    p = np.einsum("nij,nj->ni", m, qd)
+    ct_qd = np.einsum("nij,nj->ni", m_dot, qd) - model.coriolis(q, qd)
+    return p, effort + ct_qd - model.gravity(q)
+
+
+class MomentumObserver:
+    """The generalised-momentum observer (module docstring), one sample at a time.
+
+    arm: the nominal model; gain_1_s: K_O, a number or (7,) 1/s; compensation: identified effects
+    (its ``arm`` replaces ``arm``).
+    """
+
+    def __init__(self, arm: ArmModel, gain_1_s: float | Sequence[float] = DEFAULT_GAIN_1_S, compensation: Compensation | None = None) -> None:
+        self.arm = arm
+        self.gain_1_s = _gain(gain_1_s)
+        self.compensation = compensation
+        self.reset()
+
+    def reset(self) -> None:
+        """Start afresh: the next sample is the new p(0), with r = 0."""
+        self._p0: np.ndarray | None = None
+        self._integral = np.zeros(N)
+        self.r = np.zeros(N)
+
+    def update(self, q: np.ndarray, qd: np.ndarray, tau_meas: np.ndarray, dt_s: float) -> np.ndarray:
+        """r (7,) N·m for one sample: q (7,) rad, qd (7,) rad/s, tau_meas (7,) N·m, dt_s since the last one."""
+        p, beta = momentum_terms(self.arm, *(np.reshape(x, (1, N)) for x in (q, qd, tau_meas)), self.compensation)
+        return self._step(p[0], beta[0], dt_s)
+
+    def _step(self, p: np.ndarray, beta: np.ndarray, dt_s: float) -> np.ndarray:
+        if self._p0 is None:
+            self._p0 = p.copy()
+            self.r = np.zeros(N)
+            return self.r.copy()
+        k = self.gain_1_s
+        self.r = k * (self._integral + beta * dt_s - (p - self._p0)) / (1.0 + k * dt_s)
+        self._integral = self._integral + (beta - self.r) * dt_s
+        return self.r.copy()
+
+
+def observe(arm: ArmModel, recording: Recording, gain_1_s: float | Sequence[float] = DEFAULT_GAIN_1_S, compensation: Compensation | None = None) -> np.ndarray:
+    """The observer's r (N, 7) over a recording: the numbers of :class:`MomentumObserver`, sample by sample."""
+    observer = MomentumObserver(arm, gain_1_s, compensation)
+    p, beta = momentum_terms(arm, recording.q, recording.qd, recording.effort, compensation)
+    dt = np.diff(recording.stamps_ns, prepend=recording.stamps_ns[0]) * 1e-9
+    return np.array([observer._step(p[k], beta[k], float(dt[k])) for k in range(len(recording))])
+
+
+def public_residual(arm: ArmModel, recording: Recording, compensation: Compensation | None = None) -> np.ndarray:
+    """The public scheme's residual τ_meas − τ(q, q̇, 0), (N, 7) N·m (minus the effects' share, q̈ = 0)."""
+    zero = np.zeros_like(recording.q)
+    r = recording.effort - _model(arm, compensation).inverse_dynamics(recording.q, recording.qd, zero)
+    if compensation is not None:
+        r = r - compensation.torque(recording.q, recording.qd, zero)
+    return r
+
+
+# ----------------------------------------------------------------------------- thresholds
+def _joint_vector(value: Any, where: str, *, positive: bool) -> np.ndarray:
+    if isinstance(value, dict):
+        unknown = set(value) - set(JOINT_SUFFIXES)
+        missing = set(JOINT_SUFFIXES) - set(value)
+        if unknown or missing:
+            raise CollisionError(f"{where}: expected the joints {', '.join(JOINT_SUFFIXES)}, got {sorted(value)}")
+        value = [value[j] for j in JOINT_SUFFIXES]
+    try:
+        arr = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        raise CollisionError(f"{where}: expected 7 numbers, got {value!r}") from err
+    if arr.shape != (N,) or not np.all(np.isfinite(arr)) or np.any(arr <= 0 if positive else arr < 0):
+        raise CollisionError(f"{where}: expected 7 finite numbers {'> 0' if positive else '>= 0'}, got {value!r}")
+    arr.flags.writeable = False
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class Thresholds:
+    """Per-joint thresholds a + b |q̇|: offset_nm (7,) N·m > 0, slope_nm_s_rad (7,) N·m·s/rad ≥ 0.
+
+    gain_1_s (7,): the observer gain they were calibrated with (r depends on it); margin and
+    files: how they were calibrated (for the record).
+    """
+
+    offset_nm: np.ndarray
+    slope_nm_s_rad: np.ndarray = field(default_factory=lambda: np.zeros(N))
+    gain_1_s: np.ndarray = field(default_factory=lambda: np.full(N, DEFAULT_GAIN_1_S))
+    margin: float = 1.0
+    files: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "offset_nm", _joint_vector(self.offset_nm, "offset_nm", positive=True))
+        object.__setattr__(self, "slope_nm_s_rad", _joint_vector(self.slope_nm_s_rad, "slope_nm_s_rad", positive=False))
+        object.__setattr__(self, "gain_1_s", _joint_vector(self.gain_1_s, "gain_1_s", positive=True))
+        object.__setattr__(self, "files", tuple(str(f) for f in self.files))
+        try:
+            margin = float(self.margin)
+        except (TypeError, ValueError) as err:
+            raise CollisionError(f"margin: expected a number >= 1, got {self.margin!r}") from err
+        if not margin >= 1.0 or not np.isfinite(margin):
+            raise CollisionError(f"margin: expected a number >= 1, got {self.margin!r}")
+        object.__setattr__(self, "margin", margin)
+
+    def at(self, qd: np.ndarray) -> np.ndarray:
+        """Thresholds at the speed qd, (..., 7) N·m; qd (..., 7) rad/s."""
+        return self.offset_nm + self.slope_nm_s_rad * np.abs(qd)
+
+    def to_dict(self) -> dict[str, Any]:
+        def joints(v: np.ndarray) -> dict[str, float]:
+            return {j: float(x) for j, x in zip(JOINT_SUFFIXES, v)}
+
+        return {
+            "offset_nm": joints(self.offset_nm),
+            "slope_nm_s_rad": joints(self.slope_nm_s_rad),
+            "gain_1_s": joints(self.gain_1_s),
+            "margin": float(self.margin),
+            "files": list(self.files),
+        }
+
+    @classmethod
+    def from_dict(cls, raw: Any, where: str = "thresholds") -> Thresholds:
+        if not isinstance(raw, dict) or "offset_nm" not in raw:
+            raise CollisionError(f"{where}: expected a mapping with offset_nm (and slope_nm_s_rad, gain_1_s), got {raw!r}")
+        unknown = set(raw) - {"offset_nm", "slope_nm_s_rad", "gain_1_s", "margin", "files"}
+        if unknown:
+            raise CollisionError(f"{where}: unknown keys {sorted(unknown)}")
+        try:
+            return cls(**raw)
+        except CollisionError as err:
+            raise CollisionError(f"{where}: {err}") from err
+
+
+def write_thresholds(path: str | os.PathLike[str], thresholds: Thresholds) -> None:
+    """Write ``thresholds`` as YAML (thresholds.yaml)."""
+    with open(path, "w", encoding="utf-8") as stream:
+        stream.write("# Collision thresholds a + b|q̇| per joint, from `baxter-dynamics calibrate`.\n")
+        yaml.safe_dump(thresholds.to_dict(), stream, sort_keys=False, allow_unicode=True)
+
+
+def read_thresholds(path: str | os.PathLike[str]) -> Thresholds:
+    """The :class:`Thresholds` of a YAML file written by :func:`write_thresholds`."""
+    try:
+        with open(path, encoding="utf-8") as stream:
+            raw = yaml.safe_load(stream)
+    except (OSError, yaml.YAMLError) as err:
+        raise CollisionError(f"{path}: cannot read the thresholds file ({err})") from err
+    return Thresholds.from_dict(raw, str(path))
+
+
+def calibrate_thresholds(
+    residuals: Sequence[np.ndarray],
+    velocities: Sequence[np.ndarray],
+    *,
+    margin: float = 1.5,
+    speed_dependent: bool = True,
+    slow_rad_s: float = 0.05,
+    floor_nm: float = 0.05,
+    gain_1_s: float | Sequence[float] = DEFAULT_GAIN_1_S,
+    files: Sequence[str] = (),
+) -> Thresholds:
+    """Thresholds from collision-free data by the module docstring's rule.
+
+    residuals, velocities: per recording, observer r (N, 7) N·m and q̇ (N, 7) rad/s.
+    """
+    if not residuals or len(residuals) != len(velocities):
+        raise CollisionError("calibration needs at least one recording (residuals and velocities alike)")
+    r = np.abs(np.concatenate(residuals)) * margin
+    speed = np.abs(np.concatenate(velocities))
+    offset = np.empty(N)
+    slope = np.zeros(N)
+    for j in range(N):
+        slow = speed[:, j] <= slow_rad_s
+        if not speed_dependent or not slow.any():
+            offset[j] = r[:, j].max()
+        else:
+            offset[j] = r[slow, j].max()
+            moving = ~slow
+            if moving.any():
+                slope[j] = max(0.0, float(np.max((r[moving, j] - offset[j]) / speed[moving, j])))
+    return Thresholds(np.maximum(offset, floor_nm), slope, _gain(gain_1_s), float(margin), tuple(files))
+
+
+# ----------------------------------------------------------------------------- detection
+class DetectorState(NamedTuple):
+    """The detector after a sample: collision on or off; joints (indices) above their threshold in
+    the current event (empty when off)."""
+
+    collision: bool
+    joints: tuple[int, ...]
+
+
+class CollisionDetector:
+    """Hysteresis on |r| against thresholds (module docstring).
+
+    consecutive: samples above before it turns on (≥ 1); release_fraction: of the threshold, below
+    which every joint must stay for hold_s before it turns off.
+    """
+
+    def __init__(self, thresholds: Thresholds, *, consecutive: int = 2, release_fraction: float = 0.5, hold_s: float = 0.1) -> None:
+        if consecutive < 1 or not 0 < release_fraction <= 1 or hold_s < 0:
+            raise CollisionError(
+                f"detector: need consecutive >= 1, 0 < release_fraction <= 1, hold_s >= 0; got {consecutive}, {release_fraction}, {hold_s}"
+            )
+        self.thresholds = thresholds
+        self.consecutive = int(consecutive)
+        self.release_fraction = float(release_fraction)
+        self.hold_s = float(hold_s)
+        self.reset()
+
+    def reset(self) -> None:
+        """Off, counters cleared."""
+        self._above = 0
+        self._quiet_s = 0.0
+        self.state = DetectorState(False, ())
+
+    def update(self, r: np.ndarray, qd: np.ndarray, dt_s: float) -> DetectorState:
+        """The state after one sample: r (7,) N·m, qd (7,) rad/s, dt_s since the last sample."""
+        limit = self.thresholds.at(qd)
+        above = np.abs(r) > limit
+        if not self.state.collision:
+            self._above = self._above + 1 if above.any() else 0
+            if self._above >= self.consecutive:
+                self._quiet_s = 0.0
+                self.state = DetectorState(True, tuple(int(j) for j in np.flatnonzero(above)))
+            return self.state
+        joints = tuple(sorted(set(self.state.joints) | {int(j) for j in np.flatnonzero(above)}))
+        if np.all(np.abs(r) < self.release_fraction * limit):
+            self._quiet_s += dt_s
+            if self._quiet_s >= self.hold_s:
+                self._above = 0
+                self.state = DetectorState(False, ())
+                return self.state
+        else:
+            self._quiet_s = 0.0
+        self.state = DetectorState(True, joints)
+        return self.state
+
+
+def detect(detector: CollisionDetector, r: np.ndarray, qd: np.ndarray, stamps_ns: np.ndarray) -> np.ndarray:
+    """The detector's on/off (N,) bool over r, qd (N, 7) at stamps_ns (N,), from a reset."""
+    detector.reset()
+    dt = np.diff(np.asarray(stamps_ns), prepend=stamps_ns[0]) * 1e-9
+    return np.array([detector.update(r[k], qd[k], float(dt[k])).collision for k in range(len(r))], dtype=bool)
+
+
+def public_detector() -> CollisionDetector:
+    """The public scheme's detector: fixed :data:`PUBLIC_THRESHOLDS_NM`, on at the first sample
+    above, off at the first sample with every joint below."""
+    return CollisionDetector(Thresholds(np.array(PUBLIC_THRESHOLDS_NM)), consecutive=1, release_fraction=1.0, hold_s=0.0)

@@ -1,0 +1,239 @@
+"""Collision monitoring: the momentum observer, thresholds, the detector, the public scheme, calibrate,
+and the simulator's collisions with their ground truth."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from baxter_dynamics_ros import load_arm_model
+from baxter_dynamics_ros.arm_model import ArmModel
+from baxter_dynamics_ros.cli import main
+from baxter_dynamics_ros.collision import (
+    PUBLIC_THRESHOLDS_NM,
+    CollisionDetector,
+    MomentumObserver,
+    Thresholds,
+    calibrate_thresholds,
+    detect,
+    momentum_terms,
+    observe,
+    public_detector,
+    public_residual,
+    read_thresholds,
+    write_thresholds,
+)
+from baxter_dynamics_ros.compensation import Compensation
+from baxter_dynamics_ros.effects import effects_from_dict
+from baxter_dynamics_ros.errors import CollisionError, EffectSpecError
+from baxter_dynamics_ros.simulator import (
+    Collision,
+    SensorModel,
+    SimulationSpec,
+    external_torques,
+    read_spec_json,
+    simulate,
+    write_ground_truth,
+)
+from msg_adapters.recording_files import read_recording, write_joint_states
+
+from reference_models import pinocchio_from_arm, random_states
+
+EXACT = SensorModel(position_step_rad=0.0, effort_step_nm=0.0)
+GAIN = 30.0
+#: Pushes on the joints directly (s0 3 N·m, e1 −3, w2 1) and on the flange (20 N down).
+PUSHES = (
+    Collision(1.0, 0.8, "push", "joints", torque_nm=(3.0, 0, 0, -3.0, 0, 0, 1.0)),
+    Collision(2.2, 0.6, "push", "flange", force_n=(0.0, 0.0, -20.0)),
+)
+
+
+@pytest.fixture(scope="module")
+def arm() -> ArmModel:
+    return load_arm_model("right")
+
+
+@pytest.fixture(scope="module")
+def pushed():
+    return simulate(SimulationSpec("random", 3.5, 100.0, seed=2, collisions=PUSHES))
+
+
+def test_coriolis_transpose_term_matches_pinocchio(arm: ArmModel) -> None:
+    """β − τ + G = Cᵀ(q, q̇) q̇ (Ṁ by central difference) against Pinocchio's Coriolis matrix."""
+    ref = pinocchio_from_arm(arm)
+    q, qd, _ = random_states(arm, 20, 0, 5.0)
+    tau = np.zeros_like(q)
+    p, beta = momentum_terms(arm, q, qd, tau)
+    for k in range(len(q)):
+        c = pin.computeCoriolisMatrix(ref.model, ref.data, q[k], qd[k])
+        np.testing.assert_allclose(beta[k] + ref.gravity(q[k]), c.T @ qd[k], atol=1e-7)
+        np.testing.assert_allclose(p[k], ref.mass_matrix(q[k]) @ qd[k], atol=1e-10)
+
+
+def test_per_sample_observer_gives_the_batch_numbers(arm: ArmModel, pushed) -> None:
+    rec = pushed.recording()
+    batch = observe(arm, rec, GAIN)
+    observer = MomentumObserver(arm, GAIN)
+    dt = np.diff(rec.stamps_ns, prepend=rec.stamps_ns[0]) * 1e-9
+    one_by_one = np.array([observer.update(rec.q[k], rec.qd[k], rec.effort[k], dt[k]) for k in range(len(rec))])
+    np.testing.assert_array_equal(one_by_one, batch)
+    observer.reset()
+    np.testing.assert_array_equal(observer.update(rec.q[5], rec.qd[5], rec.effort[5], 0.01), np.zeros(7))
+
+
+def test_observer_recovers_the_external_torque(arm: ArmModel, pushed) -> None:
+    """r = −τ_ext once the push has lasted a few time constants (1/K_O = 33 ms); 0 before and after."""
+    r = observe(arm, pushed.recording(), GAIN)
+    t = pushed.recording().stamps_s
+    truth = -pushed.tau_external
+    on_joints = (t > 1.25) & (t < 1.75)  # a constant torque: r settles on it (discrete pole 1/(1 + K_O Δt) per sample)
+    np.testing.assert_allclose(truth[on_joints], np.tile([-3.0, 0, 0, 3.0, 0, 0, -1.0], (on_joints.sum(), 1)))
+    np.testing.assert_allclose(r[on_joints], truth[on_joints], atol=0.05)
+    at_flange = (t > 2.35) & (t < 2.75)  # J_vᵀF turns with the arm: r lags it by 1/K_O
+    peak = np.abs(truth[at_flange]).max()
+    assert peak > 10.0
+    np.testing.assert_allclose(r[at_flange], truth[at_flange], atol=0.03 * peak)
+    np.testing.assert_allclose(r[(t < 0.95) | (t > 3.1)], 0.0, atol=0.1)
+    # The first-order lag: 1 − e^{-1} of the step one time constant into the ramped push (ramp 20 ms).
+    k = int(np.searchsorted(t, 1.0 + 0.02 + 1.0 / GAIN))
+    assert 0.5 < r[k, 0] / truth[k, 0] < 0.8
+
+
+def test_observer_stays_near_zero_without_external_torque(arm: ArmModel) -> None:
+    result = simulate(SimulationSpec("random", 4.0, 100.0, seed=4, sensor=EXACT))
+    rec = result.recording()
+    r = observe(arm, rec, GAIN)
+    assert np.abs(r).max() < 0.1
+    # The public scheme (q̈ = 0) on the same motion: its residual is the missing M q̈, large.
+    public = public_residual(arm, rec)
+    np.testing.assert_allclose(public, rec.effort - arm.inverse_dynamics(rec.q, rec.qd, np.zeros_like(rec.q)), atol=1e-12)
+    assert np.abs(public).max(axis=0)[1] > 10 * np.abs(r).max(axis=0)[1]
+
+
+def test_compensated_effects_leave_no_residual(arm: ArmModel) -> None:
+    effects = effects_from_dict({"s1_spring": {}, "viscous_friction": {"damping_nm_s_rad": 0.5}})
+    result = simulate(SimulationSpec("random", 3.0, 100.0, seed=5, effects=effects, sensor=EXACT))
+    rec = result.recording()
+    assert np.abs(observe(arm, rec, GAIN)).max() > 5.0
+    assert np.abs(observe(arm, rec, GAIN, Compensation(arm, effects))).max() < 0.1
+
+
+def test_public_scheme_thresholds_and_detector() -> None:
+    assert PUBLIC_THRESHOLDS_NM == (10.0, 10.0, 5.0, 4.5, 2.0, 2.0, 1.0)
+    detector = public_detector()
+    qd = np.zeros(7)
+    assert not detector.update(np.array([9.99, -9.99, 4.99, 4.49, 1.99, -1.99, 0.99]), qd, 0.01).collision
+    state = detector.update(np.array([0, 0, 0, -4.6, 0, 0, 0.0]), qd, 0.01)
+    assert state.collision and state.joints == (3,)
+    assert not detector.update(np.zeros(7), qd, 0.01).collision
+
+
+def test_detector_hysteresis() -> None:
+    thresholds = Thresholds(np.full(7, 2.0), slope_nm_s_rad=np.full(7, 1.0))
+    detector = CollisionDetector(thresholds, consecutive=3, release_fraction=0.5, hold_s=0.05)
+    n = 40
+    r, qd = np.zeros((n, 7)), np.zeros((n, 7))
+    r[5:7, 2] = 3.0  # two samples above: not enough
+    r[10:20, 2] = 3.0  # on at the third sample (12)
+    r[14:20, 4] = -2.5
+    r[20:24, 2] = 1.5  # below the threshold but above half of it: stays on
+    r[30:33, 1] = 2.5
+    qd[30:33, 1] = 1.0  # the speed raises the threshold to 3 N·m: no detection
+    stamps_ns = np.arange(n) * 10_000_000
+    on = detect(detector, r, qd, stamps_ns)
+    expected = np.zeros(n, dtype=bool)
+    expected[12:28] = True  # quiet from sample 24: off after 50 ms, at sample 28 (24, 25, 26, 27, 28 → 5 × 10 ms)
+    expected[28] = False
+    np.testing.assert_array_equal(on, expected)
+    detector.reset()
+    for k in range(16):
+        state = detector.update(r[k], qd[k], 0.01)
+    assert state.collision and state.joints == (2, 4)
+    with pytest.raises(CollisionError, match="consecutive"):
+        CollisionDetector(thresholds, consecutive=0)
+
+
+def test_thresholds_yaml_round_trip_and_errors(tmp_path: Path) -> None:
+    thresholds = Thresholds(np.arange(1.0, 8.0), np.linspace(0, 1, 7), np.full(7, 25.0), 1.5, ("a.bag",))
+    path = tmp_path / "thresholds.yaml"
+    write_thresholds(path, thresholds)
+    back = read_thresholds(path)
+    for name in ("offset_nm", "slope_nm_s_rad", "gain_1_s"):
+        np.testing.assert_array_equal(getattr(back, name), getattr(thresholds, name))
+    assert back.margin == 1.5 and back.files == ("a.bag",)
+    assert "s0: 1.0" in path.read_text()
+    path.write_text("offset_nm: {s0: 1, s1: 1}\n")
+    with pytest.raises(CollisionError, match="thresholds.yaml: offset_nm: expected the joints"):
+        read_thresholds(path)
+    with pytest.raises(CollisionError, match="> 0"):
+        Thresholds(np.zeros(7))
+
+
+def test_calibrated_thresholds_cover_the_data_with_the_margin() -> None:
+    rng = np.random.default_rng(1)
+    qd = rng.uniform(-1.0, 1.0, (500, 7))
+    qd[:50] = 0.01
+    r = (0.2 + 0.5 * np.abs(qd)) * rng.uniform(-1, 1, (500, 7))
+    thresholds = calibrate_thresholds([r[:250], r[250:]], [qd[:250], qd[250:]], margin=1.5)
+    assert np.all(thresholds.at(qd) >= 1.5 * np.abs(r) - 1e-12)
+    assert np.all(thresholds.slope_nm_s_rad > 0.3) and np.all(thresholds.offset_nm <= 1.5 * (0.2 + 0.5 * 0.05))
+    constant = calibrate_thresholds([r], [qd], margin=2.0, speed_dependent=False)
+    np.testing.assert_allclose(constant.offset_nm, 2.0 * np.abs(r).max(axis=0))
+    assert np.all(constant.slope_nm_s_rad == 0)
+    with pytest.raises(CollisionError, match="margin: expected a number >= 1"):
+        calibrate_thresholds([r], [qd], margin=0.5)
+
+
+def test_simulated_collisions_ground_truth(arm: ArmModel, pushed, tmp_path: Path) -> None:
+    # Recorded effort − rigid body with the true q̈ = −τ_ext (the effort is the actuators' torque).
+    rigid = arm.inverse_dynamics(pushed.q_true, pushed.qd_true, pushed.qdd_true)
+    np.testing.assert_allclose(pushed.effort - rigid, -pushed.tau_external, atol=0.002 + 1e-9)
+    t = pushed.recording().stamps_s
+    at_flange = (t > 2.25) & (t < 2.75)
+    jv = arm.jacobian(pushed.q_true[at_flange])[:, :3]
+    np.testing.assert_allclose(pushed.tau_external[at_flange], np.einsum("nij,i->nj", jv, [0.0, 0.0, -20.0]), atol=0.05)
+    assert np.all(pushed.tau_external[(t < 1.0) | ((t > 1.8) & (t < 2.2)) | (t > 2.8)] == 0)
+    np.testing.assert_allclose(external_torques(arm, PUSHES, t, pushed.q_true), pushed.tau_external, atol=1e-9)
+    path = tmp_path / "sim.truth.json"
+    write_ground_truth(path, pushed)
+    truth = json.loads(path.read_text())
+    first, second = truth["collisions"]
+    assert (first["start_s"], first["end_s"], first["link"], first["profile"]) == (1.0, 1.8, "joints", "push")
+    np.testing.assert_allclose(first["peak_joint_torque_nm"], [3, 0, 0, 3, 0, 0, 1], atol=1e-12)
+    assert second["link"] == "flange" and max(second["peak_joint_torque_nm"]) > 5
+    assert read_spec_json(path) == pushed.spec
+    with pytest.raises(EffectSpecError, match="forces act at the flange only"):
+        Collision(0.0, 0.1, link="e1")
+
+
+def test_an_impact_is_a_half_sine(arm: ArmModel) -> None:
+    spec = SimulationSpec("paper_y", 1.0, 1000.0, collisions=(Collision(0.2, 0.05, "impact", "joints", torque_nm=(0, 0, 0, 0, 4.0, 0, 0)),))
+    tau = simulate(spec).tau_external[:, 4]
+    t = np.arange(len(tau)) / 1000.0
+    np.testing.assert_allclose(tau, np.where((t >= 0.2) & (t <= 0.25), 4.0 * np.sin(np.pi * (t - 0.2) / 0.05), 0.0), atol=1e-9)
+
+
+def test_calibrate_cli(tmp_path: Path, pushed, capsys: pytest.CaptureFixture[str]) -> None:
+    free = simulate(SimulationSpec("random", 2.0, 100.0, seed=6))
+    bag = tmp_path / "free.csv"
+    rec = free.recording()
+    write_joint_states(bag, rec.stamps_ns, rec.joint_names, rec.q, rec.qd, rec.effort)
+    out = tmp_path / "thresholds.yaml"
+    assert main(["calibrate", str(bag), "--out", str(out), "--margin", "2"]) == 0
+    thresholds = read_thresholds(out)
+    assert thresholds.files == (str(bag),) and thresholds.margin == 2.0
+    r = observe(load_arm_model("right"), read_recording(bag), GAIN)
+    assert np.all(thresholds.at(rec.qd) >= 2 * np.abs(r) - 1e-9)
+    before = out.read_text()
+    assert main(["calibrate", str(bag), "--out", str(out)]) == 1
+    assert "exists already" in capsys.readouterr().err and out.read_text() == before
+    assert main(["calibrate", str(bag), "--out", str(bag.with_suffix(".yaml")), "--effects", str(tmp_path / "none.yaml")]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("ERROR: ") and "none.yaml" in err[0]
+    assert main(["calibrate", str(bag), "--out", str(bag)]) == 1
+    assert "refusing to write over the input" in capsys.readouterr().err and bag.exists()
+
