@@ -17,7 +17,7 @@ import numpy as np
 import pinocchio as pin
 import yaml
 
-from baxter_dynamics_ros import ArmModel
+from baxter_dynamics_ros import ArmModel, pinocchio_model
 
 N = 7
 URDF_PATH = Path(__file__).resolve().parents[2] / "shared" / "reference" / "baxter.urdf"
@@ -108,22 +108,10 @@ class PinocchioArm:
 
 
 def pinocchio_from_arm(arm: ArmModel) -> PinocchioArm:
-    """A chain of 7 revolute-z joints from the arm's DH table and link inertials.
-
-    Joint 1 sits on DH frame 0, joint i+1 on joint i at X_i, and link i (inertial parameters in
-    DH frame i) is attached to joint i at X_i; the flange is DH frame 7, i.e. X_7 on joint 7.
-    Gravity is the arm's, in its base frame (Pinocchio's world here).
-    """
-    model = pin.Model()
-    joint, placement = 0, pin.SE3.Identity()
-    for dh_row, name, link in zip(arm.dh, arm.joint_names, arm.links):
-        joint = model.addJoint(joint, pin.JointModelRZ(), placement, name)
-        placement = link_placement(dh_row)
-        inertia = pin.Inertia(link.mass_kg, np.array(link.com_m), np.array(link.inertia_kgm2))
-        model.appendBodyToJoint(joint, inertia, placement)
-    flange = model.addFrame(pin.Frame("flange", joint, placement, pin.FrameType.OP_FRAME))
-    model.gravity.linear = np.array(arm.gravity_m_s2)
-    return PinocchioArm(model, model.createData(), np.arange(N), pin.SE3.Identity(), flange)
+    """The package's Pinocchio model of the arm (:func:`baxter_dynamics_ros.pinocchio_model.pinocchio_from_arm`:
+    7 revolute-z joints from the DH table, link i attached at X_i), its flange frame = DH frame 7."""
+    model = pinocchio_model.pinocchio_from_arm(arm)
+    return PinocchioArm(model, model.createData(), np.arange(N), pin.SE3.Identity(), model.getFrameId("flange"))
 
 
 def urdf_mount_offset(arm: ArmModel) -> np.ndarray:

@@ -60,6 +60,7 @@ def test_installed_package_loads_models_from_its_share_folder(colcon_install: Pa
     env = dict(os.environ, PYTHONPATH=str(site), AMENT_PREFIX_PATH=str(colcon_install))
     code = (
         "import baxter_dynamics_ros as b; from baxter_dynamics_ros.arm_model import config_dir;"
+        "import msg_adapters.recording_files, baxter_dynamics_ros.node;"
         "m = b.load_arm_model('left'); print(b.__file__); print(config_dir()); print(m.joint_names[0])"
     )
     out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True)
@@ -68,3 +69,6 @@ def test_installed_package_loads_models_from_its_share_folder(colcon_install: Pa
     assert module_file.startswith(str(site))
     assert config == str(colcon_install / "share" / PACKAGE / "config")
     assert first_joint == "left_s0"
+    script = colcon_install / "lib" / PACKAGE / "baxter-dynamics"
+    shown = subprocess.run([sys.executable, str(script), "--help"], cwd=tmp_path, env=env, capture_output=True, text=True)
+    assert shown.returncode == 0 and "diagnose" in shown.stdout, shown.stderr
