@@ -555,10 +555,8 @@ def diagnose(
 
     current = _Model("raw", ())
     current_cv, _ = _cv_sse(current, segments)
-    baseline_cv = current_cv.copy()
     remaining = list(candidates) + ["acceleration_noise"]
     reports: dict[str, EffectReport] = {}
-    best_tried: dict[str, tuple[float, str]] = {}
     rank = 0
     while remaining:
         # AIC in squared-error terms: 2 σ̂² per parameter and effective sample (σ̂² = SSE / n_train),
@@ -591,9 +589,6 @@ def diagnose(
                 theta_all = _fit(segments[trial.world], trial)
                 reason = _plausibility(cand, trial.split(theta_all)[-1], arm)
             options.append((net, gain, name, cand, trial, cv, fits, joint_gain, reason))
-            label = name if cand == "acceleration_noise" else f"{name} {cand.variant}".strip()
-            if name not in best_tried or net > best_tried[name][0]:
-                best_tried[name] = (net, label)
         if not options:
             break
         options.sort(key=lambda o: -o[0])

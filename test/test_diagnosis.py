@@ -7,9 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-import numpy as np
 import pytest
-import yaml
 
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.diagnosis import CANDIDATE_NAMES, diagnose

@@ -17,7 +17,7 @@ from baxter_dynamics_ros.cli import main
 from baxter_dynamics_ros.recording import arm_joint_names
 from msg_adapters.bag_io import RESULT_TOPICS, read_bag_recording
 from msg_adapters.csv_io import read_table_recording
-from msg_adapters.serialized_joint_states import JOINT_STATE, typestore
+from msg_adapters.serialized_joint_states import JOINT_STATE
 
 N = 400
 TOPICS = ("/robot/joint_states", *RESULT_TOPICS.values())
