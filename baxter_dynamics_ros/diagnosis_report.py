@@ -20,6 +20,8 @@ from .effects import effects_to_dict
 
 __all__ = ["write_diagnosis"]
 
+#: Parameters listed per effect in the report's table (all are in diagnosis.json).
+MAX_PARAMS_SHOWN = 8
 OUTPUT_FILES = ("diagnosis.json", "effects.yaml", "report.html", "residual_over_time.png", "regimes.png", "before_after.png")
 
 
@@ -127,15 +129,17 @@ def _html(result: DiagnosisResult, plots: dict[str, Path]) -> str:
     )
     effect_rows = []
     for e in result.effects:
+        fitted = [(k, v) for k, v in e.params.items() if abs(v) > 0] if e.selected else []
+        # The 70 inertial parameters: the largest changes here, all of them in diagnosis.json.
+        shown = sorted(fitted, key=lambda kv: -abs(kv[1]))[:MAX_PARAMS_SHOWN] if len(fitted) > MAX_PARAMS_SHOWN else fitted
         params = ", ".join(
             f"{k} = {v:.4g}" + (f" ± {e.params_std[k]:.2g}" if k in e.params_std and np.isfinite(e.params_std[k]) else "")
-            for k, v in e.params.items()
-            if abs(v) > 0 or k in ("cutoff_hz",)
-        )
+            for k, v in shown
+        ) + (", … (all in diagnosis.json)" if len(shown) < len(fitted) else "")
         effect_rows.append(
             [str(e.rank), e.name, "yes" if e.selected else "no", e.variant, ", ".join(_short(e.joints)), f"{e.cv_gain:.4g}", params or "—", e.reason]
         )
-    effects = _table(["rank", "effect", "selected", "variant", "joints", "CV gain [N·m² / sample]", "fitted parameters (± jackknife SD)", "why"], effect_rows)
+    effects = _table(["rank", "effect", "selected", "variant", "joints", "CV gain [N·m² / sample]", "fitted parameters of the selected (± jackknife SD)", "why"], effect_rows)
     shrink_rows = [["rigid model, raw q̈"] + [f"{v:.3f}" for v in base] + ["—"]]
     for e in result.selected():
         shrink_rows.append([f"+ {e.name}"] + [f"{a:.3f} ({(a - b) / b:+.0%})" for a, b in zip(e.test_rms_after, e.test_rms_before)] + [f"{np.sum(e.test_rms_before**2) - np.sum(e.test_rms_after**2):.4g}"])
