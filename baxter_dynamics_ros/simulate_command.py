@@ -5,7 +5,7 @@ moving, the rest still) to ``--out``: a ``.mcap`` ROS 2 bag or a ``.csv`` / ``.p
 (the generic layout of :mod:`msg_adapters.csv_io`), written whole or not at all, and the
 ground truth beside it as ``<out>.truth.json`` (spec, effects with parameters, seed, tracking).
 
-The effects spec (``--effects``) is a YAML file with up to three sections; see
+The effects spec (``--effects``) is a YAML file with up to four sections; see
 ``config/effects_example.yaml``::
 
     effects:      # name: {parameter: value}; names and parameters in baxter_dynamics_ros.effects
@@ -16,6 +16,9 @@ The effects spec (``--effects``) is a YAML file with up to three sections; see
       effort_noise_nm: 0.02
     controller:   # optional: dual-loop gains (ControllerGains)
       inner_bandwidth_rad_s: 150.0
+    collisions:   # optional: external forces/torques on the arm (simulator.Collision), with ground truth
+      - {start_s: 5.0, duration_s: 0.5, profile: push, link: flange, force_n: [0.0, 0.0, -30.0]}
+      - {start_s: 9.0, duration_s: 0.05, profile: impact, link: joints, torque_nm: [0, 0, 0, 4.0, 0, 0, 0]}
 """
 
 from __future__ import annotations
@@ -26,7 +29,7 @@ from pathlib import Path
 
 from .errors import EffectSpecError
 
-SPEC_SECTIONS = ("effects", "sensor", "controller")
+SPEC_SECTIONS = ("effects", "sensor", "controller", "collisions")
 DEFAULT_TOPIC = "/robot/joint_states"
 
 
@@ -58,7 +61,16 @@ def load_spec_file(path: Path) -> dict:
     unknown = set(raw) - set(SPEC_SECTIONS)
     if unknown:
         raise EffectSpecError(f"{path}: unknown sections {sorted(unknown)}; a spec has {', '.join(SPEC_SECTIONS)}")
-    return {section: raw.get(section) or {} for section in SPEC_SECTIONS}
+    return {section: raw.get(section) or ([] if section == "collisions" else {}) for section in SPEC_SECTIONS}
+
+
+def _collisions(raw, where: str):
+    """The spec's ``collisions:`` list as simulator Collisions."""
+    from .simulator import Collision
+
+    if not isinstance(raw, list):
+        raise EffectSpecError(f"{where}: collisions must be a list of mappings, got {raw!r}")
+    return tuple(Collision.from_dict(c, f"{where}: collisions[{i}]") for i, c in enumerate(raw))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -70,7 +82,7 @@ def run(args: argparse.Namespace) -> int:
 
     check_output(args.out, replace=args.force)  # before simulating: fail fast
     truth = ground_truth_path(args.out)
-    sections = load_spec_file(args.effects) if args.effects is not None else dict.fromkeys(SPEC_SECTIONS, {})
+    sections = load_spec_file(args.effects) if args.effects is not None else {s: ([] if s == "collisions" else {}) for s in SPEC_SECTIONS}
     where = str(args.effects or "effects spec")
     spec = SimulationSpec(
         trajectory=args.trajectory,
@@ -81,6 +93,7 @@ def run(args: argparse.Namespace) -> int:
         effects=effects_from_dict(sections["effects"], f"{where}: effects"),
         sensor=SensorModel.from_dict(sections["sensor"], f"{where}: sensor"),
         controller=ControllerGains.from_dict(sections["controller"], f"{where}: controller"),
+        collisions=_collisions(sections["collisions"], where),
     )
     print(
         f"simulating {spec.duration_s:g} s of {spec.trajectory} on the {spec.side} arm, "

@@ -191,3 +191,20 @@ def test_cli_errors_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[s
     existing.write_text("keep")
     assert main(["simulate", "--duration", "1", "--out", str(existing)]) == 1
     assert "exists already" in capsys.readouterr().err and existing.read_text() == "keep"
+
+
+def test_spec_file_collisions_reach_the_ground_truth(tmp_path: Path) -> None:
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(
+        "collisions:\n"
+        "  - {start_s: 0.5, duration_s: 0.3, profile: push, link: joints, torque_nm: [0, 0, 0, 5.0, 0, 0, 0]}\n"
+    )
+    out = tmp_path / "c.mcap"
+    assert main(["simulate", "--trajectory", "random", "--duration", "1", "--effects", str(spec), "--out", str(out)]) == 0
+    truth = json.loads(out.with_name(out.name + ".truth.json").read_text())
+    (collision,) = truth["collisions"]
+    assert collision["start_s"] == 0.5 and collision["end_s"] == pytest.approx(0.8)
+    assert collision["peak_joint_torque_nm"][3] == pytest.approx(5.0)
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("collisions: {start_s: 1}\n")
+    assert main(["simulate", "--duration", "1", "--effects", str(bad), "--out", str(tmp_path / "x.mcap")]) == 1
