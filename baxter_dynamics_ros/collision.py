@@ -44,6 +44,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import yaml
 
+from . import lagrange_euler
 from .arm_model import ArmModel
 from .compensation import Compensation
 from .errors import CollisionError
@@ -95,11 +96,8 @@ def momentum_terms(
     model = _model(arm, compensation)
     if compensation is not None:
         effort = effort - compensation.torque(q, qd, np.zeros_like(q))
-    m = model.mass_matrix(q)
-    m_dot = (model.mass_matrix(q + MDOT_STEP_S * qd) - model.mass_matrix(q - MDOT_STEP_S * qd)) / (2.0 * MDOT_STEP_S)
-    p = np.einsum("nij,nj->ni", m, qd)
-    ct_qd = np.einsum("nij,nj->ni", m_dot, qd) - model.coriolis(q, qd)
-    return p, effort + ct_qd - model.gravity(q)
+    p, w = lagrange_euler.momentum_terms(model.dh, model.pseudo_inertias, model.gravity_m_s2, q, qd, MDOT_STEP_S)
+    return p, effort + w
 
 
 class MomentumObserver:
@@ -113,6 +111,7 @@ class MomentumObserver:
         self.arm = arm
         self.gain_1_s = _gain(gain_1_s)
         self.compensation = compensation
+        self._sample = np.zeros((3, 1, N))  # q, q̇, τ_meas of one sample as (1, 7) rows: no per-call allocation
         self.reset()
 
     def reset(self) -> None:
@@ -123,7 +122,9 @@ class MomentumObserver:
 
     def update(self, q: np.ndarray, qd: np.ndarray, tau_meas: np.ndarray, dt_s: float) -> np.ndarray:
         """r (7,) N·m for one sample: q (7,) rad, qd (7,) rad/s, tau_meas (7,) N·m, dt_s since the last one."""
-        p, beta = momentum_terms(self.arm, *(np.reshape(x, (1, N)) for x in (q, qd, tau_meas)), self.compensation)
+        sample = self._sample
+        sample[0, 0], sample[1, 0], sample[2, 0] = q, qd, tau_meas
+        p, beta = momentum_terms(self.arm, sample[0], sample[1], sample[2], self.compensation)
         return self._step(p[0], beta[0], dt_s)
 
     def _step(self, p: np.ndarray, beta: np.ndarray, dt_s: float) -> np.ndarray:
@@ -132,9 +133,17 @@ class MomentumObserver:
             self.r = np.zeros(N)
             return self.r.copy()
         k = self.gain_1_s
-        self.r = k * (self._integral + beta * dt_s - (p - self._p0)) / (1.0 + k * dt_s)
-        self._integral = self._integral + (beta - self.r) * dt_s
-        return self.r.copy()
+        # r = K (I + β Δt − (p − p0)) / (1 + K Δt), then I += (β − r) Δt; in place, on (7,) arrays.
+        r = beta * dt_s
+        r += self._integral
+        r -= p
+        r += self._p0
+        r *= k / (1.0 + k * dt_s)
+        self.r = r
+        beta -= r
+        beta *= dt_s
+        self._integral += beta
+        return r.copy()
 
 
 def observe(arm: ArmModel, recording: Recording, gain_1_s: float | Sequence[float] = DEFAULT_GAIN_1_S, compensation: Compensation | None = None) -> np.ndarray:

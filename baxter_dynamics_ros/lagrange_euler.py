@@ -41,6 +41,7 @@ __all__ = [
     "inverse_dynamics",
     "jacobian",
     "mass_matrix",
+    "momentum_terms",
 ]
 
 N = 7
@@ -367,6 +368,52 @@ def _batch_inertial_regressor(dh, E, g, q, qd, qdd, out):
 
 
 @njit(cache=True)
+def _batch_momentum_terms(dh, J, g, q, qd, eps, p_out, w_out):
+    """p = M(q) q̇ and w = Ṁ q̇ − (C(q, q̇) q̇ + G(q)) per sample, Ṁ = (M(q + ε q̇) − M(q − ε q̇)) / 2ε."""
+    K = _dh_constants(dh)
+    T = np.empty((N + 1, 4, 4))
+    B = np.empty((4, 4))
+    S = np.empty((N, 6))
+    Jb = np.empty((N, 4, 4))
+    Jc = np.empty((N, 4, 4))
+    B3 = np.empty((3, 4))
+    Dsum = np.empty((3, 4))
+    Phi = np.empty((N, 3, 4))
+    D = np.empty((3, 4))
+    Mm = np.empty((N, N))
+    Mp = np.empty((N, N))
+    zero = np.zeros(N)
+    qs = np.empty(N)
+    n_vec = np.empty(N)
+    for n in range(q.shape[0]):
+        _chain(K, q[n], T)
+        _axes(T, S)
+        _base_inertias(T, J, Jb, B)
+        _composite(Jb, Jc)
+        _mass_from_composite(S, Jc, Mm, B3)
+        _rne_sweep(S, Jb, qd[n], zero, g, True, n_vec, Dsum, Phi, D)
+        for i in range(N):
+            s = 0.0
+            for k in range(N):
+                s += Mm[i, k] * qd[n, k]
+            p_out[n, i] = s
+            w_out[n, i] = -n_vec[i]
+        for sign in (1.0, -1.0):
+            for i in range(N):
+                qs[i] = q[n, i] + sign * eps * qd[n, i]
+            _chain(K, qs, T)
+            _axes(T, S)
+            _base_inertias(T, J, Jb, B)
+            _composite(Jb, Jc)
+            _mass_from_composite(S, Jc, Mp, B3)
+            for i in range(N):
+                s = 0.0
+                for k in range(N):
+                    s += Mp[i, k] * qd[n, k]
+                w_out[n, i] += sign * s / (2.0 * eps)
+
+
+@njit(cache=True)
 def _cholesky_solve(Mm, b, L, x):
     """x = M⁻¹ b for a symmetric positive-definite (7, 7) M; L is (7, 7) scratch."""
     for i in range(N):
@@ -511,6 +558,19 @@ def inertial_regressor(dh, gravity_m_s2, q, qd, qdd) -> np.ndarray:
     out = np.empty((q2.shape[0], N, 10 * N))
     _batch_inertial_regressor(dh, inertial_basis(), gravity_m_s2, q2, qd2, qdd2, out)
     return out.reshape(lead + (N, 10 * N))
+
+
+def momentum_terms(dh, pseudo_inertias, gravity_m_s2, q, qd, eps: float) -> tuple[np.ndarray, np.ndarray]:
+    """p = M(q) q̇ (kg·m²/s) and Ṁ q̇ − C(q, q̇) q̇ − G(q) (N·m), each of q's shape, in one compiled pass.
+
+    Ṁ is the central difference (M(q + ε q̇) − M(q − ε q̇)) / 2ε, exact to O(ε²); since
+    Cᵀ q̇ = Ṁ q̇ − C q̇, the second output is Cᵀ q̇ − G, what a momentum observer integrates.
+    """
+    (q2, qd2), lead = _as_batches(q=q, qd=qd)
+    p = np.empty_like(q2)
+    w = np.empty_like(q2)
+    _batch_momentum_terms(dh, pseudo_inertias, gravity_m_s2, q2, qd2, float(eps), p, w)
+    return p.reshape(lead + (N,)), w.reshape(lead + (N,))
 
 
 def _kinematics(dh, q) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:

@@ -4,7 +4,8 @@ Run it with ``baxter_dynamics_node`` or ``python -m baxter_dynamics_ros.node`` (
 baxter_dynamics_ros baxter_dynamics_node`` in a colcon workspace), with the usual
 ``--ros-args --params-file config/baxter_dynamics.yaml -p name:=value`` overrides. Parameters are
 the fields of :class:`~baxter_dynamics_ros.node_settings.NodeSettings` (arm, model_file,
-effects_file, joint_states_topic, qos_depth, estimator, cutoff_hz, diagnostics_period_s); every
+effects_file, joint_states_topic, qos_depth, estimator, cutoff_hz, diagnostics_period_s,
+observer_gain_1_s, thresholds_file, calibration_window_s); every
 value is validated when set, and only ``estimator`` and ``cutoff_hz`` may change while running.
 
 Topics (sensor_msgs/JointState; outputs carry the arm's 7 joints, the input's header stamp, and
@@ -15,15 +16,28 @@ the sample's position and velocity):
   reliable and best-effort publishers alike, and a late sample is worth less than the next one;
   the depth (100 by default, 0.1 s at 1 kHz) absorbs scheduling hiccups without loss on one host;
 - out ``~/gravity`` (effort = G(q)), ``~/inverse_dynamics`` (effort = τ with the estimated q̈),
-  ``~/residual`` (effort = measured effort − τ; not published when the input has no effort).
+  ``~/residual`` (effort = measured effort − τ; not published when the input has no effort),
+  ``~/external_torque`` (effort = r of the generalised-momentum observer, gain ``observer_gain_1_s``,
+  on the same model; ≈ −τ_ext, see :mod:`baxter_dynamics_ros.collision`; not published without effort).
   QoS: reliable, volatile, keep last ``qos_depth``, which every subscriber can match. Each is
   written only while it has a subscriber;
 - out ``/diagnostics`` (diagnostic_msgs/DiagnosticArray) every ``diagnostics_period_s`` on the
   steady clock (so it reports even when a simulated clock stops): input rate, samples skipped per
   cause, processing latency (sample taken → last output written), per-joint residual RMS over the
-  window; levels as in :mod:`baxter_dynamics_ros.residuals`.
+  window; levels as in :mod:`baxter_dynamics_ros.residuals`, raised to ERROR naming the joints when
+  a collision was detected in the window;
+- out ``~/collision`` (std_msgs/Bool, reliable, transient local: a late subscriber gets the state at
+  once): published on every change and with every diagnostics report.
 
-Service ``~/reset`` (std_srvs/Trigger) restarts the q̈ estimator. With ``use_sim_time`` the node
+Collision detection (:mod:`baxter_dynamics_ros.collision_monitor`): a hysteresis detector on the
+external torque against per-joint thresholds, from ``thresholds_file`` (``baxter-dynamics
+calibrate``) or from ``~/calibrate`` (std_srvs/Trigger: thresholds calibrated on the last
+``calibration_window_s`` of samples, which must be collision-free motion; success false, with the
+reason, on too little data). ``~/set_monitoring`` (std_srvs/SetBool) switches detection on and
+off (off: no collision). Without thresholds nothing is detected.
+
+Service ``~/reset`` (std_srvs/Trigger) restarts the q̈ estimator and the observer, and forgets the
+samples buffered for calibration. With ``use_sim_time`` the node
 runs on /clock; a backwards jump of that clock (a recording looping) resets the estimator, as does
 a header stamp going backwards. Bad samples are skipped, counted and warned about at most once per
 second per cause (see :class:`~baxter_dynamics_ros.residuals.SkipReason`); the node never stops
@@ -35,7 +49,8 @@ not by the executor, whose Python bookkeeping costs ~0.2 ms per wake-up — a fi
 diagnostics timer, /clock); one lock keeps the two threads apart.
 
 This module owns the ROS objects and nothing else: the work is done by
-:class:`~baxter_dynamics_ros.residuals.ResidualPipeline`, the message layouts by
+:class:`~baxter_dynamics_ros.residuals.ResidualPipeline` and
+:class:`~baxter_dynamics_ros.collision_monitor.CollisionMonitor`, the message layouts by
 :mod:`msg_adapters.joint_state`.
 """
 
@@ -63,13 +78,16 @@ from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.subscription import Subscription
 from sensor_msgs.msg import JointState
-from std_srvs.srv import Trigger
+from std_msgs.msg import Bool
+from std_srvs.srv import SetBool, Trigger
 
 from msg_adapters.joint_state import ArmJointStateWriter, JointStateReader, diagnostic_array
 
 from .arm_model import load_arm_model
+from .collision import read_thresholds
+from .collision_monitor import CollisionMonitor
 from .compensation import load_compensation
-from .errors import BaxterDynamicsError, SettingsError
+from .errors import BaxterDynamicsError, CollisionError, SettingsError
 from .node_settings import NodeSettings
 from .residuals import SKIP_DESCRIPTIONS, HealthMonitor, ResetCause, ResidualPipeline, SkipReason
 
@@ -163,7 +181,16 @@ class DynamicsNode(Node):
                 f"compensating {', '.join(e.name for e in compensation.effects) or 'nothing'} from {settings.effects_file}"
                 + (f"; not compensated live: {', '.join(compensation.ignored)}" if compensation.ignored else "")
             )
-        self._pipeline = ResidualPipeline(arm, settings.estimator, settings.cutoff_hz, compensation)
+        self._pipeline = ResidualPipeline(arm, settings.estimator, settings.cutoff_hz, compensation, settings.observer_gain_1_s)
+        thresholds = read_thresholds(settings.thresholds_file) if settings.thresholds_file else None
+        if thresholds is not None and not (thresholds.gain_1_s == settings.observer_gain_1_s).all():
+            self.get_logger().warn(
+                f"{settings.thresholds_file} was calibrated with observer gains {thresholds.gain_1_s.tolist()} 1/s, "
+                f"the node runs {settings.observer_gain_1_s} 1/s: recalibrate (~/calibrate) or set observer_gain_1_s"
+            )
+        self._monitor = CollisionMonitor(
+            arm.joint_names, settings.calibration_window_s, settings.observer_gain_1_s, thresholds, settings.thresholds_file
+        )
         self._skip_loggers = {reason: self.get_logger().get_child(reason.value) for reason in SkipReason}
 
         # No QoS-event handlers on our own topics: these profiles match every peer but a
@@ -177,8 +204,15 @@ class DynamicsNode(Node):
         quiet = PublisherEventCallbacks(use_default_callbacks=False)
         self._output_publishers = tuple(
             self.create_publisher(JointState, f"~/{name}", outputs, event_callbacks=quiet)
-            for name in ("gravity", "inverse_dynamics", "residual")
+            for name in ("gravity", "inverse_dynamics", "residual", "external_torque")
         )
+        state = QoSProfile(
+            history=HistoryPolicy.KEEP_LAST,
+            depth=1,
+            reliability=ReliabilityPolicy.RELIABLE,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL,
+        )
+        self._collision_publisher = self.create_publisher(Bool, "~/collision", state, event_callbacks=quiet)
         self._diagnostics_publisher = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         sensor_data = QoSProfile(  # qos_profile_sensor_data with a deeper queue
             history=HistoryPolicy.KEEP_LAST,
@@ -198,6 +232,8 @@ class DynamicsNode(Node):
         self._health = HealthMonitor(arm.joint_names, self._subscription.topic_name)
         self._status_name = f"{self.get_fully_qualified_name()}: {arm.side} arm dynamics"
         self._reset_service = self.create_service(Trigger, "~/reset", self.on_reset)
+        self._calibrate_service = self.create_service(Trigger, "~/calibrate", self.on_calibrate)
+        self._monitoring_service = self.create_service(SetBool, "~/set_monitoring", self.on_set_monitoring)
 
         self._steady_clock = Clock(clock_type=ClockType.STEADY_TIME)
         self._window_start_ns = self._steady_clock.now().nanoseconds
@@ -211,7 +247,8 @@ class DynamicsNode(Node):
         self.get_logger().info(
             f"{arm.side} arm ({arm.source}): {self._subscription.topic_name} -> "
             + ", ".join(p.topic_name for p in self._output_publishers)
-            + f"; q̈ by {settings.estimator}"
+            + f"; q̈ by {settings.estimator}; collision detection "
+            + (f"with {settings.thresholds_file}" if thresholds is not None else "waiting for ~/calibrate")
         )
 
     @property
@@ -238,6 +275,10 @@ class DynamicsNode(Node):
                 for publisher, message in zip(self._output_publishers, self._writer.messages(result)):
                     if message is not None and publisher.get_subscription_count():
                         publisher.publish(message)
+                if result.external_torque is not None:
+                    changed = self._monitor.update(result.stamp_ns, result.external_torque, result.qd)
+                    if changed is not None:
+                        self._collision_publisher.publish(Bool(data=changed))
             self._health.record(result, time.perf_counter_ns() - start_ns)
 
     def _log_skip(self, reason: SkipReason) -> None:
@@ -251,8 +292,9 @@ class DynamicsNode(Node):
         """Publish the health of the last window on /diagnostics."""
         with self._lock:
             now_ns = self._steady_clock.now().nanoseconds
-            report = self._health.report((now_ns - self._window_start_ns) * 1e-9)
+            report = self._monitor.report(self._health.report((now_ns - self._window_start_ns) * 1e-9))
             self._window_start_ns = now_ns
+            self._collision_publisher.publish(Bool(data=self._monitor.collision))
         stamp = self.get_clock().now().to_msg()
         self._diagnostics_publisher.publish(
             diagnostic_array(report, name=self._status_name, hardware_id="baxter", stamp=stamp)
@@ -262,7 +304,36 @@ class DynamicsNode(Node):
         """~/reset: restart the estimator."""
         self._reset(ResetCause.SERVICE)
         response.success = True
-        response.message = "estimator reset: the next sample starts it afresh (q̈ = 0)"
+        response.message = "estimator reset: the next sample starts it and the observer afresh (q̈ = 0, r = 0)"
+        return response
+
+    def on_calibrate(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        """~/calibrate: thresholds from the last calibration_window_s of samples; detection starts with them."""
+        with self._lock:
+            try:
+                thresholds, source = self._monitor.calibrate()
+            except CollisionError as err:
+                response.success, response.message = False, str(err)
+                return response
+            self._monitor.set_thresholds(thresholds, source)
+        offsets = ", ".join(f"{x:.3g}" for x in thresholds.offset_nm)
+        response.success = True
+        response.message = f"thresholds from {source}: offsets [{offsets}] N·m; detection " + (
+            "on" if self._monitor.monitoring else "off (~/set_monitoring)"
+        )
+        self.get_logger().info(response.message)
+        return response
+
+    def on_set_monitoring(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
+        """~/set_monitoring: collision detection on or off (off: no collision)."""
+        with self._lock:
+            if self._monitor.set_monitoring(request.data):
+                self._collision_publisher.publish(Bool(data=False))
+            calibrated = self._monitor.detector is not None
+        response.success = True
+        response.message = "collision detection " + ("on" if request.data else "off") + (
+            "" if calibrated or not request.data else " once thresholds are set (~/calibrate)"
+        )
         return response
 
     def on_clock_jump(self, jump: TimeJump) -> None:
@@ -273,6 +344,8 @@ class DynamicsNode(Node):
     def _reset(self, cause: ResetCause) -> None:
         with self._lock:
             self._pipeline.reset()
+            if self._monitor.reset():
+                self._collision_publisher.publish(Bool(data=False))
             self._health.record_reset(cause)
 
     # ------------------------------------------------------------------------------ parameters

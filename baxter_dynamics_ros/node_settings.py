@@ -51,6 +51,17 @@ class NodeSettings:
         10.0, "Cut-off of the lowpass estimator in Hz (-3 dB); ignored by first_difference.", live=True
     )
     diagnostics_period_s: float = _setting(1.0, "Period of the /diagnostics report and of its window (s).")
+    observer_gain_1_s: float = _setting(
+        30.0, "Gain K_O of the momentum observer giving ~/external_torque, 1/s (time constant 1/K_O)."
+    )
+    thresholds_file: str = _setting(
+        "",
+        "thresholds.yaml written by `baxter-dynamics calibrate`: collision detection on ~/external_torque "
+        "(empty: no detection until ~/calibrate is called).",
+    )
+    calibration_window_s: float = _setting(
+        10.0, "~/calibrate takes the thresholds from this many seconds of the latest samples (collision-free motion)."
+    )
 
     def __post_init__(self) -> None:
         if self.arm not in ("right", "left"):
@@ -61,7 +72,7 @@ class NodeSettings:
             raise SettingsError(f"qos_depth: must be at least 1, got {self.qos_depth}")
         if self.estimator not in ESTIMATORS:
             raise SettingsError(f"estimator: expected one of {', '.join(ESTIMATORS)}, got {self.estimator!r}")
-        for name in ("cutoff_hz", "diagnostics_period_s"):
+        for name in ("cutoff_hz", "diagnostics_period_s", "observer_gain_1_s", "calibration_window_s"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise SettingsError(f"{name}: must be a positive number, got {value}")

@@ -21,7 +21,11 @@ into G(q), τ and the residual, or into a :class:`SkipReason` (the message reade
    inertial effects in M, C, G, the others' share of the effort added to τ);
    if either holds NaN/inf, or the residual does, the estimator (whose state holds the same
    values) is reset and the sample skipped (``non_finite_model``);
-6. residual = measured effort − τ, or None when the message has no effort.
+6. residual = measured effort − τ, or None when the message has no effort;
+7. external torque r = the generalised-momentum observer's output
+   (:class:`~baxter_dynamics_ros.collision.MomentumObserver`, gain ``observer_gain_1_s``, the same
+   compensated model) on the samples with effort, or None without effort. The observer restarts
+   (r = 0) with the estimator, and after a sample without effort.
 
 :class:`HealthMonitor` counts what happened to every sample and reports once per window (the
 node's ``diagnostics_period_s``, 1 s by default) as plain data, which the node publishes on
@@ -43,8 +47,9 @@ import numpy as np
 
 from .acceleration import FirstDifference, LowPassDifferentiator
 from .arm_model import ArmModel
+from .collision import DEFAULT_GAIN_1_S, MomentumObserver
 from .compensation import Compensation
-from .errors import SettingsError
+from .errors import CollisionError, SettingsError
 from .node_settings import ESTIMATORS
 
 __all__ = [
@@ -111,8 +116,9 @@ class ArmSample(NamedTuple):
 
 class ModelTorques(NamedTuple):
     """The pipeline's output for one sample, all (7,): q rad, qd rad/s (measured, or differenced
-    from positions when ``qd_from_positions``), qdd rad/s² (estimated), gravity G(q), tau (eq. 1)
-    and residual = effort − tau in N·m (None without effort)."""
+    from positions when ``qd_from_positions``), qdd rad/s² (estimated), gravity G(q), tau (eq. 1),
+    residual = effort − tau and external_torque = the momentum observer's r, in N·m (both None
+    without effort)."""
 
     stamp_ns: int
     q: np.ndarray
@@ -122,6 +128,7 @@ class ModelTorques(NamedTuple):
     tau: np.ndarray
     residual: np.ndarray | None
     qd_from_positions: bool
+    external_torque: np.ndarray | None = None
 
 
 def make_estimator(name: str, cutoff_hz: float) -> LowPassDifferentiator | FirstDifference:
@@ -144,11 +151,20 @@ class ResidualPipeline:
     """G, τ and residual of one arm, one sample at a time (see the module docstring for the steps)."""
 
     def __init__(
-        self, arm: ArmModel, estimator: str = "lowpass", cutoff_hz: float = 10.0, compensation: Compensation | None = None
+        self,
+        arm: ArmModel,
+        estimator: str = "lowpass",
+        cutoff_hz: float = 10.0,
+        compensation: Compensation | None = None,
+        observer_gain_1_s: float = DEFAULT_GAIN_1_S,
     ) -> None:
         self.compensation = compensation
         self.arm = arm if compensation is None else compensation.arm
         self._estimator = make_estimator(estimator, cutoff_hz)
+        try:
+            self._observer = MomentumObserver(arm, observer_gain_1_s, compensation)
+        except CollisionError as err:
+            raise SettingsError(f"observer_gain_1_s: {err}") from err
         self._last_stamp_ns: int | None = None
         self._last_q: np.ndarray | None = None
         # One batch of two rows for the compiled core: row 0 gives τ(q, q̇, q̈), row 1 G(q) = τ(q, 0, 0).
@@ -163,8 +179,9 @@ class ResidualPipeline:
         self.reset()
 
     def reset(self) -> None:
-        """Forget every past sample: the next one restarts the estimator (q̈ = 0)."""
+        """Forget every past sample: the next one restarts the estimator (q̈ = 0) and the observer (r = 0)."""
         self._estimator.reset()
+        self._observer.reset()
         self._last_stamp_ns = None
         self._last_q = None
 
@@ -201,12 +218,17 @@ class ResidualPipeline:
         tau_and_gravity = self._dynamics()
         if self.compensation is not None:
             tau_and_gravity[0] += self.compensation.torque(q, qd, qdd)
-        residual = None if effort is None else effort - tau_and_gravity[0]
-        if not (_all_finite(tau_and_gravity) and _all_finite(residual)):
+        if effort is None:
+            residual = external_torque = None
+            self._observer.reset()
+        else:
+            residual = effort - tau_and_gravity[0]
+            external_torque = self._observer.update(q, qd, effort, dt_s)
+        if not (_all_finite(tau_and_gravity) and _all_finite(residual) and _all_finite(external_torque)):
             self.reset()
             return SkipReason.NON_FINITE_MODEL
         return ModelTorques(
-            stamp_ns, q, qd, qdd, tau_and_gravity[1], tau_and_gravity[0], residual, qd_from_positions
+            stamp_ns, q, qd, qdd, tau_and_gravity[1], tau_and_gravity[0], residual, qd_from_positions, external_torque
         )
 
 

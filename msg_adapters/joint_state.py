@@ -109,21 +109,22 @@ class ArmJointStateWriter:
         self._dtype = layout.endian + "f8"
         self._spans = [slice(offset, offset + 8 * n) for offset, n in layout.arrays]
 
-    def messages(self, torques: ModelTorques) -> tuple[bytes, bytes, bytes | None]:
-        """CDR bytes of the gravity, inverse-dynamics and residual messages (residual None without effort)."""
+    def messages(self, torques: ModelTorques) -> tuple[bytes, bytes, bytes | None, bytes | None]:
+        """CDR bytes of the gravity, inverse-dynamics, residual and external-torque messages (the last
+        two None without effort)."""
         position, velocity, effort = self._spans
         buffer = bytearray(self._template)
         self._stamp.pack_into(buffer, self._stamp_offset, *divmod(torques.stamp_ns, 1_000_000_000))
         buffer[position] = torques.q.astype(self._dtype).tobytes()
         buffer[velocity] = torques.qd.astype(self._dtype).tobytes()
         out = []
-        for torque in (torques.gravity, torques.tau, torques.residual):
+        for torque in (torques.gravity, torques.tau, torques.residual, torques.external_torque):
             if torque is None:
                 out.append(None)
                 continue
             buffer[effort] = torque.astype(self._dtype).tobytes()
             out.append(bytes(buffer))
-        return out[0], out[1], out[2]
+        return out[0], out[1], out[2], out[3]
 
 
 def diagnostic_array(report: HealthReport, *, name: str, hardware_id: str, stamp: Time) -> DiagnosticArray:

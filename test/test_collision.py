@@ -237,3 +237,41 @@ def test_calibrate_cli(tmp_path: Path, pushed, capsys: pytest.CaptureFixture[str
     assert main(["calibrate", str(bag), "--out", str(bag)]) == 1
     assert "refusing to write over the input" in capsys.readouterr().err and bag.exists()
 
+
+
+# ----------------------------------------------------------------------------- the node's monitor (no ROS)
+def test_monitor_calibrates_on_the_last_window_only_and_reports_collisions() -> None:
+    from baxter_dynamics_ros.collision_monitor import MAX_RATE_HZ, CollisionMonitor
+    from baxter_dynamics_ros.residuals import Health, HealthReport
+
+    names = load_arm_model("right").joint_names
+    monitor = CollisionMonitor(names, window_s=1.0, gain_1_s=30.0)
+    ok = HealthReport(Health.OK, "publishing", ())
+    with pytest.raises(CollisionError, match="too little data"):
+        monitor.calibrate()
+    step_ns = int(1e9 / MAX_RATE_HZ)
+    n = int(3 * MAX_RATE_HZ)  # 3 s at the highest rate: the ring buffer wraps round twice
+    r = np.zeros((n, 7))
+    r[: n - int(MAX_RATE_HZ) - 10, 3] = 50.0  # large, but older than the last second
+    r[-5:, 3] = 0.4  # the largest in the last second
+    for k in range(n):
+        assert monitor.update(k * step_ns, r[k], np.zeros(7)) is None  # no thresholds: nothing detected
+    thresholds, source = monitor.calibrate()
+    np.testing.assert_allclose(thresholds.offset_nm[3], 1.5 * 0.4)  # margin 1.5 of the window's max
+    assert "~/calibrate" in source
+    assert not monitor.set_thresholds(thresholds, source)
+    t = n * step_ns
+    assert monitor.update(t, np.full(7, 0.01), np.zeros(7)) is None  # below every threshold
+    assert monitor.update(t + step_ns, np.array([0, 0, 0, -1.0, 0, 0, 0]), np.zeros(7)) is None  # 1 of 2 samples
+    assert monitor.update(t + 2 * step_ns, np.array([0, 0, 0, -1.0, 0, 0, 0]), np.zeros(7)) is True
+    with pytest.raises(CollisionError, match="collision is detected now"):
+        monitor.calibrate()
+    report = monitor.report(ok)
+    assert report.level == Health.ERROR and report.message.startswith("collision at right_e1")
+    assert dict(report.values)["collision"] == "true"
+    assert monitor.set_monitoring(False) and not monitor.collision  # off: the collision ends
+    assert monitor.update(t + 3 * step_ns, np.full(7, -9.0), np.zeros(7)) is None
+    report = monitor.report(ok)
+    assert report.level == Health.ERROR  # the window still held the collision
+    report = monitor.report(ok)
+    assert report.level == Health.OK and dict(report.values)["monitoring"] == "off"

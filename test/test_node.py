@@ -25,6 +25,7 @@ from recorded_bags import START_NS, joint_states
 
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.acceleration import FirstDifference, LowPassDifferentiator
+from baxter_dynamics_ros.collision import MomentumObserver
 from baxter_dynamics_ros.simulator import BAXTER_JOINT_NAMES
 
 rclpy = pytest.importorskip("rclpy")
@@ -103,6 +104,13 @@ def expected_torques(
     return {"gravity": arm.gravity(q), "inverse_dynamics": tau, "residual": effort - tau}
 
 
+def expected_external_torque(arm, stamps_ns, q, qd, effort, gain_1_s: float = 30.0, compensation=None) -> np.ndarray:
+    """The momentum observer's r (N, 7) fed the samples the node accepted, in order, from a reset."""
+    observer = MomentumObserver(arm, gain_1_s, compensation)
+    dt_s = np.diff(np.asarray(stamps_ns, dtype=np.int64), prepend=int(stamps_ns[0])) * 1e-9
+    return np.array([observer.update(q[k], qd[k], effort[k], float(dt_s[k])) for k in range(len(stamps_ns))])
+
+
 def status_of(msg: DiagnosticArray, name: str):
     """(level, message, {key: value}) of the status called ``name``, or None."""
     for status in msg.status:
@@ -119,7 +127,7 @@ class LiveNode:
         self.prefix = f"{namespace}/baxter_dynamics"
         self.status_name = f"{self.prefix}: {{}} arm dynamics"
         self.publisher = client.publisher(JointState, input_topic)
-        self.outputs = {t: client.collect(JointState, f"{self.prefix}/{t}") for t in ("gravity", "inverse_dynamics", "residual")}
+        self.outputs = {t: client.collect(JointState, f"{self.prefix}/{t}") for t in ("gravity", "inverse_dynamics", "residual", "external_torque")}
         self.diagnostics = client.collect(DiagnosticArray, "/diagnostics")
         self.side = "right"
 
@@ -225,7 +233,10 @@ def test_outputs_equal_the_core_at_100_hz(fresh: LiveNode) -> None:
     samples = Samples(100, seed=1)
     fresh.send([samples.message(k) for k in range(100)])
     q, qd, effort = samples.arm(RIGHT.joint_names)
-    fresh.check(samples.stamps_ns, q, qd, expected_torques(RIGHT, samples.stamps_ns, q, qd, effort), RIGHT.joint_names)
+    expected = expected_torques(RIGHT, samples.stamps_ns, q, qd, effort)
+    expected["external_torque"] = expected_external_torque(RIGHT, samples.stamps_ns, q, qd, effort)
+    assert np.abs(expected["external_torque"]).max() > 1.0  # a real check, not zeros against zeros
+    fresh.check(samples.stamps_ns, q, qd, expected, RIGHT.joint_names)
 
 
 def test_estimator_and_cutoff_change_live_and_bad_values_are_refused(fresh: LiveNode) -> None:
@@ -360,7 +371,7 @@ def test_without_effort_no_residual_is_published_and_diagnostics_warn(fresh: Liv
     expected = expected_torques(RIGHT, samples.stamps_ns, q, qd, effort)
     del expected["residual"]
     fresh.check(samples.stamps_ns, q, qd, expected, RIGHT.joint_names)
-    assert fresh.outputs["residual"].messages == []
+    assert fresh.outputs["residual"].messages == [] and fresh.outputs["external_torque"].messages == []
     level, message, _ = fresh.report(start, lambda s: s[2]["samples_published"] != "0")
     assert level == 1 and "no effort" in message
 
@@ -555,6 +566,9 @@ def test_effects_file_from_the_diagnosis_is_compensated(ros_client, node_process
     q, qd, effort = samples.arm(RIGHT.joint_names)
     compensation = load_compensation(RIGHT, effects)
     expected = expected_torques(RIGHT, samples.stamps_ns, q, qd, effort, compensation=compensation)
+    expected["external_torque"] = expected_external_torque(RIGHT, samples.stamps_ns, q, qd, effort, compensation=compensation)
+    rigid = expected_external_torque(RIGHT, samples.stamps_ns, q, qd, effort)
+    assert np.abs(expected["external_torque"] - rigid).max() > 1.0
     node.check(samples.stamps_ns, q, qd, expected, RIGHT.joint_names)
     assert np.abs(expected["inverse_dynamics"] - expected_torques(RIGHT, samples.stamps_ns, q, qd, effort)["inverse_dynamics"]).max() > 1.0
     assert process.stop() == 0
@@ -569,6 +583,7 @@ def test_effects_file_from_the_diagnosis_is_compensated(ros_client, node_process
         (["-p", "cutoff_hz:=0.0"], "cutoff_hz"),
         (["-p", "arm:=middle"], "arm"),
         (["-p", "model_file:=/nonexistent/model.yaml"], "model.yaml"),
+        (["-p", "thresholds_file:=/nonexistent/thresholds.yaml"], "thresholds.yaml"),
     ],
 )
 def test_bad_parameters_stop_the_node_with_one_error_line(ros_domain, args: list[str], field: str) -> None:

@@ -240,6 +240,8 @@ def test_settings_defaults_are_the_packaged_parameters_file() -> None:
         ({"cutoff_hz": 0.0}, "cutoff_hz"),
         ({"cutoff_hz": math.nan}, "cutoff_hz"),
         ({"diagnostics_period_s": -1.0}, "diagnostics_period_s"),
+        ({"observer_gain_1_s": 0.0}, "observer_gain_1_s"),
+        ({"calibration_window_s": math.inf}, "calibration_window_s"),
     ],
 )
 def test_settings_refuse_bad_values_naming_the_field(changes: dict, match: str) -> None:

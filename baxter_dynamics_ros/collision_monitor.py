@@ -1,0 +1,168 @@
+"""The live node's collision monitoring on the observer's r, sample by sample; numpy only, no ROS.
+
+:class:`CollisionMonitor` holds, for the node:
+
+- the latest samples with effort (stamp, r, q̇) in preallocated ring buffers of
+  ``calibration_window_s`` · :data:`MAX_RATE_HZ` rows, from which :meth:`~CollisionMonitor.calibrate`
+  takes thresholds (:func:`~baxter_dynamics_ros.collision.calibrate_thresholds`) over the last
+  ``calibration_window_s`` (``~/calibrate``);
+- a :class:`~baxter_dynamics_ros.collision.CollisionDetector` on r, run while monitoring is on
+  (``~/set_monitoring``) and thresholds are known (``thresholds_file`` or a calibration);
+- the diagnostics window's collision summary: :meth:`~CollisionMonitor.report` raises the health
+  report to ERROR naming the joints when a collision was on at any time in the window.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from .collision import CollisionDetector, Thresholds, calibrate_thresholds
+from .errors import CollisionError
+from .residuals import Health, HealthReport
+
+__all__ = ["MAX_RATE_HZ", "MIN_CALIBRATION_SAMPLES", "CollisionMonitor"]
+
+#: Highest input rate whose whole calibration window the buffers hold, Hz.
+MAX_RATE_HZ = 2000.0
+#: Fewest samples a calibration accepts (besides covering half the window).
+MIN_CALIBRATION_SAMPLES = 50
+
+
+class CollisionMonitor:
+    """Collision detection and online calibration on the observer's r (module docstring).
+
+    joint_names: the arm's 7 joints; window_s: calibration window, s; gain_1_s: the observer's gain
+    (recorded in calibrated thresholds); thresholds: to detect with from the start (None: not until
+    calibrated); source: where they come from, for diagnostics.
+    """
+
+    def __init__(
+        self, joint_names: Sequence[str], window_s: float, gain_1_s: float, thresholds: Thresholds | None = None, source: str = ""
+    ) -> None:
+        self.joint_names = tuple(joint_names)
+        self.window_s = float(window_s)
+        self.gain_1_s = float(gain_1_s)
+        capacity = int(math.ceil(self.window_s * MAX_RATE_HZ)) + 1
+        self._stamps_ns = np.zeros(capacity, dtype=np.int64)
+        self._r = np.zeros((capacity, len(self.joint_names)))
+        self._qd = np.zeros((capacity, len(self.joint_names)))
+        self._next = 0
+        self._count = 0
+        self._last_stamp_ns: int | None = None
+        self.monitoring = True
+        self.detector: CollisionDetector | None = None
+        self.source = ""
+        if thresholds is not None:
+            self.set_thresholds(thresholds, source)
+        self._new_window()
+
+    def _new_window(self) -> None:
+        self._events = 0
+        self._window_joints: set[int] = set(self.detector.state.joints) if self.collision else set()
+
+    @property
+    def collision(self) -> bool:
+        """Whether a collision is detected now."""
+        return self.detector is not None and self.detector.state.collision
+
+    def update(self, stamp_ns: int, r: np.ndarray, qd: np.ndarray) -> bool | None:
+        """Buffer one accepted sample (r, qd (7,)) and detect; the new collision state if it changed, else None."""
+        i = self._next
+        self._stamps_ns[i] = stamp_ns
+        self._r[i] = r
+        self._qd[i] = qd
+        self._next = (i + 1) % len(self._stamps_ns)
+        self._count = min(self._count + 1, len(self._stamps_ns))
+        last = self._last_stamp_ns
+        self._last_stamp_ns = stamp_ns
+        detector = self.detector
+        if detector is None or not self.monitoring:
+            return None
+        before = detector.state
+        state = detector.update(r, qd, 0.0 if last is None or stamp_ns <= last else (stamp_ns - last) * 1e-9)
+        if state.collision == before.collision:
+            return None
+        self._events += state.collision
+        self._window_joints.update(state.joints if state.collision else before.joints)
+        return state.collision
+
+    def reset(self) -> bool:
+        """Forget the buffered samples and restart the detector (off); True if a collision was on."""
+        self._next = self._count = 0
+        self._last_stamp_ns = None
+        return self._detector_off()
+
+    def _detector_off(self) -> bool:
+        was = self.collision
+        if self.detector is not None:
+            if was:
+                self._window_joints.update(self.detector.state.joints)
+            self.detector.reset()
+        return was
+
+    def set_monitoring(self, on: bool) -> bool:
+        """Switch detection on or off (off: no collision); True if a collision was on and is now off."""
+        self.monitoring = bool(on)
+        return False if on else self._detector_off()
+
+    def set_thresholds(self, thresholds: Thresholds, source: str) -> bool:
+        """Detect with ``thresholds`` from now on (from off); True if a collision was on and is now off."""
+        was = self._detector_off()
+        self.detector = CollisionDetector(thresholds)
+        self.source = source
+        return was
+
+    def calibrate(self) -> tuple[Thresholds, str]:
+        """Thresholds from the last ``window_s`` of buffered samples, and the text saying what they came from.
+
+        Raises :class:`CollisionError` when a collision is detected now or the samples cover less than
+        half the window (or fewer than :data:`MIN_CALIBRATION_SAMPLES`). Does not apply them
+        (:meth:`set_thresholds` does).
+        """
+        if self.collision:
+            raise CollisionError(
+                "a collision is detected now: calibrate on collision-free motion (switch ~/set_monitoring off first "
+                "if the thresholds in use are too low)"
+            )
+        stamps = self._stamps_ns[: self._count]
+        newest = int(self._stamps_ns[self._next - 1]) if self._count else 0
+        keep = (stamps >= newest - int(self.window_s * 1e9)) & (stamps <= newest)
+        n = int(np.count_nonzero(keep))
+        span_s = (newest - int(stamps[keep].min())) * 1e-9 if n else 0.0
+        if n < MIN_CALIBRATION_SAMPLES or span_s < self.window_s / 2:
+            raise CollisionError(
+                f"too little data: {n} samples with effort over {span_s:.2f} s since the last reset; calibration "
+                f"needs at least {MIN_CALIBRATION_SAMPLES} samples over {self.window_s / 2:g} s (half of "
+                f"calibration_window_s = {self.window_s:g} s) of collision-free motion: move the arm and call again"
+            )
+        thresholds = calibrate_thresholds([self._r[: self._count][keep]], [self._qd[: self._count][keep]], gain_1_s=self.gain_1_s)
+        return thresholds, f"~/calibrate over {span_s:.2f} s ({n} samples)"
+
+    def report(self, health: HealthReport) -> HealthReport:
+        """``health`` with the window's collision summary added (ERROR naming the joints if one was on); starts the next window."""
+        if self.collision:
+            self._window_joints.update(self.detector.state.joints)
+        joints = ", ".join(self.joint_names[j] for j in sorted(self._window_joints))
+        if self.detector is None:
+            status = "no thresholds: call ~/calibrate or set thresholds_file"
+        else:
+            status = "on" if self.monitoring else "off"
+        values = [
+            ("monitoring", status),
+            ("thresholds", self.source or "none"),
+            ("collision", "true" if self.collision else "false"),
+            ("collisions_in_window", str(self._events)),
+            ("collision_joints", joints),
+        ]
+        if self.detector is None:
+            values += [(f"threshold_offset_nm.{j}", "n/a") for j in self.joint_names]
+        else:
+            values += [(f"threshold_offset_nm.{j}", f"{x:.4g}") for j, x in zip(self.joint_names, self.detector.thresholds.offset_nm)]
+        level, message = health.level, health.message
+        if self._window_joints:
+            level, message = Health.ERROR, f"collision at {joints}; {message}"
+        self._new_window()
+        return HealthReport(level, message, health.values + tuple(values))
