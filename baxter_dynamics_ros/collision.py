@@ -59,6 +59,7 @@ __all__ = [
     "MomentumObserver",
     "Thresholds",
     "calibrate_thresholds",
+    "observe_arrays",
     "detect",
     "momentum_terms",
     "observe",
@@ -148,10 +149,24 @@ class MomentumObserver:
 
 def observe(arm: ArmModel, recording: Recording, gain_1_s: float | Sequence[float] = DEFAULT_GAIN_1_S, compensation: Compensation | None = None) -> np.ndarray:
     """The observer's r (N, 7) over a recording: the numbers of :class:`MomentumObserver`, sample by sample."""
+    return observe_arrays(arm, recording.stamps_ns, recording.q, recording.qd, recording.effort, gain_1_s=gain_1_s, compensation=compensation)
+
+
+def observe_arrays(
+    arm: ArmModel,
+    stamps_ns: np.ndarray,
+    q: np.ndarray,
+    qd: np.ndarray,
+    effort: np.ndarray,
+    *,
+    gain_1_s: float | Sequence[float] = DEFAULT_GAIN_1_S,
+    compensation: Compensation | None = None,
+) -> np.ndarray:
+    """:func:`observe` on arrays: stamps_ns (N,) ns, q, qd, effort (N, 7); r (N, 7) N·m."""
     observer = MomentumObserver(arm, gain_1_s, compensation)
-    p, beta = momentum_terms(arm, recording.q, recording.qd, recording.effort, compensation)
-    dt = np.diff(recording.stamps_ns, prepend=recording.stamps_ns[0]) * 1e-9
-    return np.array([observer._step(p[k], beta[k], float(dt[k])) for k in range(len(recording))])
+    p, beta = momentum_terms(arm, q, qd, effort, compensation)
+    dt = np.diff(np.asarray(stamps_ns, dtype=np.int64), prepend=stamps_ns[0]) * 1e-9
+    return np.array([observer._step(p[k], beta[k], float(dt[k])) for k in range(len(q))]).reshape(-1, N)
 
 
 def public_residual(arm: ArmModel, recording: Recording, compensation: Compensation | None = None) -> np.ndarray:

@@ -2,10 +2,14 @@
 
 :class:`CollisionMonitor` holds, for the node:
 
-- the latest samples with effort (stamp, r, q̇) in preallocated ring buffers of
-  ``calibration_window_s`` · :data:`MAX_RATE_HZ` rows, from which :meth:`~CollisionMonitor.calibrate`
-  takes thresholds (:func:`~baxter_dynamics_ros.collision.calibrate_thresholds`) over the last
-  ``calibration_window_s`` (``~/calibrate``);
+- the latest samples with effort (stamp, q, q̇, effort and r when the observer ran) in preallocated
+  ring buffers of ``calibration_window_s`` · :data:`MAX_RATE_HZ` rows, from which
+  :meth:`~CollisionMonitor.calibrate` takes thresholds
+  (:func:`~baxter_dynamics_ros.collision.calibrate_thresholds`) over the last
+  ``calibration_window_s`` (``~/calibrate``). The node runs the observer only while detection is
+  active or ``~/external_torque`` has a subscriber; for the other samples r is computed at
+  calibration, by ``observe_window`` over the buffered window (its first
+  :data:`SETTLE_TIME_CONSTANTS` observer time constants left out, while r settles from 0);
 - a :class:`~baxter_dynamics_ros.collision.CollisionDetector` on r, run while monitoring is on
   (``~/set_monitoring``) and thresholds are known (``thresholds_file`` or a calibration);
 - the diagnostics window's collision summary: :meth:`~CollisionMonitor.report` raises the health
@@ -15,7 +19,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -23,12 +27,14 @@ from .collision import CollisionDetector, Thresholds, calibrate_thresholds
 from .errors import CollisionError
 from .residuals import Health, HealthReport
 
-__all__ = ["MAX_RATE_HZ", "MIN_CALIBRATION_SAMPLES", "CollisionMonitor"]
+__all__ = ["MAX_RATE_HZ", "MIN_CALIBRATION_SAMPLES", "SETTLE_TIME_CONSTANTS", "CollisionMonitor"]
 
 #: Highest input rate whose whole calibration window the buffers hold, Hz.
 MAX_RATE_HZ = 2000.0
 #: Fewest samples a calibration accepts (besides covering half the window).
 MIN_CALIBRATION_SAMPLES = 50
+#: Observer time constants (1 / K_O) left out at the start of a window computed at calibration.
+SETTLE_TIME_CONSTANTS = 5.0
 
 
 class CollisionMonitor:
@@ -40,7 +46,13 @@ class CollisionMonitor:
     """
 
     def __init__(
-        self, joint_names: Sequence[str], window_s: float, gain_1_s: float, thresholds: Thresholds | None = None, source: str = ""
+        self,
+        joint_names: Sequence[str],
+        window_s: float,
+        gain_1_s: float,
+        thresholds: Thresholds | None = None,
+        source: str = "",
+        observe_window: Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None,
     ) -> None:
         self.joint_names = tuple(joint_names)
         self.window_s = float(window_s)
@@ -49,6 +61,9 @@ class CollisionMonitor:
         self._stamps_ns = np.zeros(capacity, dtype=np.int64)
         self._r = np.zeros((capacity, len(self.joint_names)))
         self._qd = np.zeros((capacity, len(self.joint_names)))
+        self._q = np.zeros((capacity, len(self.joint_names)))
+        self._effort = np.zeros((capacity, len(self.joint_names)))
+        self._observe_window = observe_window
         self._next = 0
         self._count = 0
         self._last_stamp_ns: int | None = None
@@ -68,18 +83,29 @@ class CollisionMonitor:
         """Whether a collision is detected now."""
         return self.detector is not None and self.detector.state.collision
 
-    def update(self, stamp_ns: int, r: np.ndarray, qd: np.ndarray) -> bool | None:
-        """Buffer one accepted sample (r, qd (7,)) and detect; the new collision state if it changed, else None."""
+    @property
+    def active(self) -> bool:
+        """Whether detection runs now (thresholds known and monitoring on): the observer is needed."""
+        return self.detector is not None and self.monitoring
+
+    def update(
+        self, stamp_ns: int, r: np.ndarray | None, qd: np.ndarray, q: np.ndarray | None = None, effort: np.ndarray | None = None
+    ) -> bool | None:
+        """Buffer one accepted sample (r or None when the observer did not run; q, qd, effort (7,))
+        and detect; the new collision state if it changed, else None."""
         i = self._next
         self._stamps_ns[i] = stamp_ns
-        self._r[i] = r
+        self._r[i] = np.nan if r is None else r
         self._qd[i] = qd
+        if q is not None and effort is not None:
+            self._q[i] = q
+            self._effort[i] = effort
         self._next = (i + 1) % len(self._stamps_ns)
         self._count = min(self._count + 1, len(self._stamps_ns))
         last = self._last_stamp_ns
         self._last_stamp_ns = stamp_ns
         detector = self.detector
-        if detector is None or not self.monitoring:
+        if detector is None or not self.monitoring or r is None:
             return None
         before = detector.state
         state = detector.update(r, qd, 0.0 if last is None or stamp_ns <= last else (stamp_ns - last) * 1e-9)
@@ -138,7 +164,17 @@ class CollisionMonitor:
                 f"needs at least {MIN_CALIBRATION_SAMPLES} samples over {self.window_s / 2:g} s (half of "
                 f"calibration_window_s = {self.window_s:g} s) of collision-free motion: move the arm and call again"
             )
-        thresholds = calibrate_thresholds([self._r[: self._count][keep]], [self._qd[: self._count][keep]], gain_1_s=self.gain_1_s)
+        window = np.flatnonzero(keep)
+        window = window[np.argsort(stamps[window], kind="stable")]
+        r = self._r[window]
+        qd = self._qd[window]
+        if not np.all(np.isfinite(r)):
+            if self._observe_window is None:
+                raise CollisionError("the observer did not run on the buffered samples and there is no way to compute it")
+            r = self._observe_window(stamps[window], self._q[window], qd, self._effort[window])
+            settled = stamps[window] >= stamps[window[0]] + int(SETTLE_TIME_CONSTANTS / self.gain_1_s * 1e9)
+            r, qd = r[settled], qd[settled]
+        thresholds = calibrate_thresholds([r], [qd], gain_1_s=self.gain_1_s)
         return thresholds, f"~/calibrate over {span_s:.2f} s ({n} samples)"
 
     def report(self, health: HealthReport) -> HealthReport:

@@ -56,6 +56,7 @@ This module owns the ROS objects and nothing else: the work is done by
 
 from __future__ import annotations
 
+import functools
 import sys
 import threading
 import time
@@ -85,6 +86,7 @@ from msg_adapters.joint_state import ArmJointStateWriter, JointStateReader, diag
 
 from .arm_model import load_arm_model
 from .collision import read_thresholds
+from .collision import observe_arrays
 from .collision_monitor import CollisionMonitor
 from .compensation import load_compensation
 from .errors import BaxterDynamicsError, CollisionError, SettingsError
@@ -189,7 +191,8 @@ class DynamicsNode(Node):
                 f"the node runs {settings.observer_gain_1_s} 1/s: recalibrate (~/calibrate) or set observer_gain_1_s"
             )
         self._monitor = CollisionMonitor(
-            arm.joint_names, settings.calibration_window_s, settings.observer_gain_1_s, thresholds, settings.thresholds_file
+            arm.joint_names, settings.calibration_window_s, settings.observer_gain_1_s, thresholds, settings.thresholds_file,
+            observe_window=functools.partial(observe_arrays, arm, gain_1_s=settings.observer_gain_1_s, compensation=compensation),
         )
         self._skip_loggers = {reason: self.get_logger().get_child(reason.value) for reason in SkipReason}
 
@@ -267,7 +270,9 @@ class DynamicsNode(Node):
         with self._lock:
             result = self._reader.read(raw)
             if not isinstance(result, SkipReason):
-                result = self._pipeline.process(result)
+                # The observer only while something uses r: detection, or a subscriber of ~/external_torque.
+                observe = self._monitor.active or self._output_publishers[3].get_subscription_count() > 0
+                result = self._pipeline.process(result, observe)
             if isinstance(result, SkipReason):
                 self._log_skip(result)
             else:
@@ -275,8 +280,10 @@ class DynamicsNode(Node):
                 for publisher, message in zip(self._output_publishers, self._writer.messages(result)):
                     if message is not None and publisher.get_subscription_count():
                         publisher.publish(message)
-                if result.external_torque is not None:
-                    changed = self._monitor.update(result.stamp_ns, result.external_torque, result.qd)
+                if result.residual is not None:  # a sample with effort
+                    changed = self._monitor.update(
+                        result.stamp_ns, result.external_torque, result.qd, result.q, result.residual + result.tau
+                    )
                     if changed is not None:
                         self._collision_publisher.publish(Bool(data=changed))
             self._health.record(result, time.perf_counter_ns() - start_ns)

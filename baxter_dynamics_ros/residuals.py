@@ -165,6 +165,7 @@ class ResidualPipeline:
             self._observer = MomentumObserver(arm, observer_gain_1_s, compensation)
         except CollisionError as err:
             raise SettingsError(f"observer_gain_1_s: {err}") from err
+        self._observing = False  # whether the observer ran on the last sample
         self._last_stamp_ns: int | None = None
         self._last_q: np.ndarray | None = None
         # One batch of two rows for the compiled core: row 0 gives τ(q, q̇, q̈), row 1 G(q) = τ(q, 0, 0).
@@ -182,6 +183,7 @@ class ResidualPipeline:
         """Forget every past sample: the next one restarts the estimator (q̈ = 0) and the observer (r = 0)."""
         self._estimator.reset()
         self._observer.reset()
+        self._observing = False
         self._last_stamp_ns = None
         self._last_q = None
 
@@ -189,8 +191,11 @@ class ResidualPipeline:
         """(2, 7): τ of the batch rows set in _q2, _qd2, _qdd2."""
         return self.arm.inverse_dynamics(self._q2, self._qd2, self._qdd2)
 
-    def process(self, sample: ArmSample) -> ModelTorques | SkipReason:
-        """The model's torques for one sample, or why it was skipped."""
+    def process(self, sample: ArmSample, observe: bool = True) -> ModelTorques | SkipReason:
+        """The model's torques for one sample, or why it was skipped.
+
+        observe: run the momentum observer (its r is ``external_torque``); when False it is
+        restarted and r is None, which saves its cost when nothing uses r."""
         stamp_ns, q, qd, effort = sample
         if not (_all_finite(q) and _all_finite(qd) and _all_finite(effort)):
             return SkipReason.NON_FINITE_INPUT
@@ -218,12 +223,15 @@ class ResidualPipeline:
         tau_and_gravity = self._dynamics()
         if self.compensation is not None:
             tau_and_gravity[0] += self.compensation.torque(q, qd, qdd)
-        if effort is None:
-            residual = external_torque = None
-            self._observer.reset()
-        else:
+        residual = external_torque = None
+        if effort is not None:
             residual = effort - tau_and_gravity[0]
+        if effort is not None and observe:
             external_torque = self._observer.update(q, qd, effort, dt_s)
+            self._observing = True
+        elif self._observing:  # restart it when it is next needed
+            self._observer.reset()
+            self._observing = False
         if not (_all_finite(tau_and_gravity) and _all_finite(residual) and _all_finite(external_torque)):
             self.reset()
             return SkipReason.NON_FINITE_MODEL

@@ -275,3 +275,32 @@ def test_monitor_calibrates_on_the_last_window_only_and_reports_collisions() -> 
     assert report.level == Health.ERROR  # the window still held the collision
     report = monitor.report(ok)
     assert report.level == Health.OK and dict(report.values)["monitoring"] == "off"
+
+
+def test_monitor_computes_r_at_calibration_when_the_observer_did_not_run() -> None:
+    """Samples buffered without r (observer off): ~/calibrate runs the observer over the window,
+    its first settling time constants left out, and gets the thresholds of that r."""
+    import functools
+
+    from baxter_dynamics_ros.collision import calibrate_thresholds, observe_arrays
+    from baxter_dynamics_ros.collision_monitor import SETTLE_TIME_CONSTANTS, CollisionMonitor
+
+    arm = load_arm_model("right")
+    rng = np.random.default_rng(5)
+    n, step_ns = 300, 10_000_000
+    stamps = np.arange(n, dtype=np.int64) * step_ns
+    t = stamps * 1e-9
+    q = 0.2 * np.sin(np.outer(t, np.arange(1, 8) * 0.7))
+    qd = 0.2 * np.cos(np.outer(t, np.arange(1, 8) * 0.7)) * np.arange(1, 8) * 0.7
+    effort = arm.gravity(q) + rng.normal(0, 0.05, (n, 7))
+    observe_window = functools.partial(observe_arrays, arm, gain_1_s=30.0)
+    monitor = CollisionMonitor(arm.joint_names, window_s=2.0, gain_1_s=30.0, observe_window=observe_window)
+    for k in range(n):
+        assert monitor.update(int(stamps[k]), None, qd[k], q[k], effort[k]) is None
+    thresholds, _ = monitor.calibrate()
+    window = stamps >= stamps[-1] - 2_000_000_000
+    r = observe_arrays(arm, stamps[window], q[window], qd[window], effort[window], gain_1_s=30.0)
+    settled = stamps[window] >= stamps[window][0] + int(SETTLE_TIME_CONSTANTS / 30.0 * 1e9)
+    expected = calibrate_thresholds([r[settled]], [qd[window][settled]], gain_1_s=30.0)
+    np.testing.assert_allclose(thresholds.offset_nm, expected.offset_nm)
+    np.testing.assert_allclose(thresholds.slope_nm_s_rad, expected.slope_nm_s_rad)
