@@ -2,7 +2,8 @@
 
 Runs the momentum observer (:mod:`baxter_dynamics_ros.collision`, gain ``--gain``) over every file,
 with the effects of ``--effects`` compensated, and writes per-joint thresholds a + b|q̇| by the
-calibration rule of that module (``--margin``; ``--constant`` for b = 0). The recordings must be
+calibration rule of that module (``--margin``; ``--consecutive`` samples in a row above before a
+detection; ``--constant`` for b = 0). The recordings must be
 free of contacts: every residual they hold is taken as normal. Never imports rclpy.
 """
 
@@ -19,13 +20,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     from msg_adapters.bag_io import DEFAULT_TOPIC
     from msg_adapters.csv_io import DEFAULT_RATE_HZ
 
-    from .collision import DEFAULT_GAIN_1_S
+    from .collision import DEFAULT_CONSECUTIVE, DEFAULT_GAIN_1_S
 
     parser.add_argument("files", type=Path, nargs="+", metavar="FILE", help="collision-free recordings (bags or tables)")
     parser.add_argument("--out", "-o", type=Path, required=True, metavar="YAML", help="thresholds file to write")
     parser.add_argument("--effects", type=Path, metavar="YAML", help="effects file from `diagnose` to compensate")
     parser.add_argument("--gain", type=float, default=DEFAULT_GAIN_1_S, metavar="1/S", help=f"observer gain K_O (default {DEFAULT_GAIN_1_S:g})")
     parser.add_argument("--margin", type=float, default=1.5, help="thresholds = margin x the largest residual (default 1.5)")
+    parser.add_argument(
+        "--consecutive", type=int, default=DEFAULT_CONSECUTIVE, metavar="N",
+        help=f"samples in a row above a threshold before a detection; the thresholds are calibrated for it (default {DEFAULT_CONSECUTIVE})",
+    )  # fmt: skip
     parser.add_argument("--constant", action="store_true", help="no speed-dependent part")
     parser.add_argument("--arm", choices=("right", "left"), help="arm (default: from the joint names)")
     parser.add_argument("--model", type=Path, metavar="YAML", help="arm model file (default: the package's model of the arm)")
@@ -66,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
     residuals = [observe(arm, rec, args.gain, compensation) for rec in recordings]
     thresholds = calibrate_thresholds(
         residuals, [rec.qd for rec in recordings], margin=args.margin, speed_dependent=not args.constant,
-        gain_1_s=args.gain, files=[str(p) for p in args.files],
+        gain_1_s=args.gain, consecutive=args.consecutive, files=[str(p) for p in args.files],
     )  # fmt: skip
     write_thresholds(args.out, thresholds)
     joints = "  ".join(f"{j.split('_', 1)[-1]} {a:.2f}+{b:.2f}|q̇|" for j, a, b in zip(arm.joint_names, thresholds.offset_nm, thresholds.slope_nm_s_rad))

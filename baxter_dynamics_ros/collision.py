@@ -24,13 +24,18 @@ Public scheme (as in public Baxter code): r = τ_meas − τ(q, q̇, 0) against
 :data:`PUBLIC_THRESHOLDS_NM`, a collision on any sample above (:func:`public_residual`,
 :func:`public_detector`).
 
-Calibration rule (:func:`calibrate_thresholds`) from collision-free observer residuals r (N, 7):
-per joint, a_j = margin · max |r_j| over the samples with |q̇_j| ≤ ``slow_rad_s`` (all samples if
-none), b_j = max over all samples of (margin · |r_j| − a_j) / |q̇_j| (≥ 0; 0 when not speed
-dependent, then a_j = margin · max |r_j|), and a_j raised to ``floor_nm`` at least; the threshold
-is a_j + b_j |q̇_j|, above margin · |r_j| on every calibration sample.
+Calibration rule (:func:`calibrate_thresholds`) from collision-free observer residuals r (N, 7),
+for a detector that needs ``consecutive`` = c samples in a row above: per recording and joint, every
+run of c samples is summarised by its smallest |r_j| (ρ_j) and its smallest |q̇_j| (σ_j); then
+a_j = margin · max ρ_j over the runs with σ_j ≤ ``slow_rad_s`` (all runs if none),
+b_j = max over all runs of (margin · ρ_j − a_j) / σ_j (≥ 0; 0 when not speed dependent, then
+a_j = margin · max ρ_j), and a_j raised to ``floor_nm`` at least. The threshold a_j + b_j |q̇_j| is
+at least a_j + b_j σ_j ≥ margin · ρ_j on every sample of a run, so on the run's sample with |r_j| = ρ_j
+it is not crossed: no calibration run of c samples is above margin · threshold throughout. With
+c = 1 this is margin · |r_j| below the threshold on every calibration sample. ``consecutive`` is
+stored with the thresholds and used by the detector.
 
-Detector (:class:`CollisionDetector`): on when some |r_j| > threshold_j for ≥ ``consecutive``
+Detector (:class:`CollisionDetector`): on when some joint's |r_j| > threshold_j for ≥ ``consecutive``
 samples in a row; off once every |r_j| < ``release_fraction`` · threshold_j for ``hold_s``.
 """
 
@@ -51,6 +56,7 @@ from .errors import CollisionError
 from .recording import JOINT_SUFFIXES, Recording
 
 __all__ = [
+    "DEFAULT_CONSECUTIVE",
     "DEFAULT_GAIN_1_S",
     "MDOT_STEP_S",
     "PUBLIC_THRESHOLDS_NM",
@@ -72,6 +78,8 @@ __all__ = [
 N = 7
 #: Default observer gain K_O, 1/s (time constant 33 ms).
 DEFAULT_GAIN_1_S = 30.0
+#: Samples in a row above a threshold before the detector turns on.
+DEFAULT_CONSECUTIVE = 2
 #: Time step of the central difference giving Ṁ along q̇, s.
 MDOT_STEP_S = 1e-6
 #: The fixed thresholds of public Baxter code, s0 … w2, N·m.
@@ -200,8 +208,9 @@ def _joint_vector(value: Any, where: str, *, positive: bool) -> np.ndarray:
 class Thresholds:
     """Per-joint thresholds a + b |q̇|: offset_nm (7,) N·m > 0, slope_nm_s_rad (7,) N·m·s/rad ≥ 0.
 
-    gain_1_s (7,): the observer gain they were calibrated with (r depends on it); margin and
-    files: how they were calibrated (for the record).
+    gain_1_s (7,): the observer gain they were calibrated with (r depends on it); consecutive: the
+    samples in a row above that the detector needs (they were calibrated for it); margin and files:
+    how they were calibrated (for the record).
     """
 
     offset_nm: np.ndarray
@@ -209,12 +218,16 @@ class Thresholds:
     gain_1_s: np.ndarray = field(default_factory=lambda: np.full(N, DEFAULT_GAIN_1_S))
     margin: float = 1.0
     files: tuple[str, ...] = ()
+    consecutive: int = DEFAULT_CONSECUTIVE
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "offset_nm", _joint_vector(self.offset_nm, "offset_nm", positive=True))
         object.__setattr__(self, "slope_nm_s_rad", _joint_vector(self.slope_nm_s_rad, "slope_nm_s_rad", positive=False))
         object.__setattr__(self, "gain_1_s", _joint_vector(self.gain_1_s, "gain_1_s", positive=True))
         object.__setattr__(self, "files", tuple(str(f) for f in self.files))
+        if isinstance(self.consecutive, bool) or not isinstance(self.consecutive, (int, np.integer)) or self.consecutive < 1:
+            raise CollisionError(f"consecutive: expected a whole number >= 1, got {self.consecutive!r}")
+        object.__setattr__(self, "consecutive", int(self.consecutive))
         try:
             margin = float(self.margin)
         except (TypeError, ValueError) as err:
@@ -235,6 +248,7 @@ class Thresholds:
             "offset_nm": joints(self.offset_nm),
             "slope_nm_s_rad": joints(self.slope_nm_s_rad),
             "gain_1_s": joints(self.gain_1_s),
+            "consecutive": self.consecutive,
             "margin": float(self.margin),
             "files": list(self.files),
         }
@@ -243,7 +257,7 @@ class Thresholds:
     def from_dict(cls, raw: Any, where: str = "thresholds") -> Thresholds:
         if not isinstance(raw, dict) or "offset_nm" not in raw:
             raise CollisionError(f"{where}: expected a mapping with offset_nm (and slope_nm_s_rad, gain_1_s), got {raw!r}")
-        unknown = set(raw) - {"offset_nm", "slope_nm_s_rad", "gain_1_s", "margin", "files"}
+        unknown = set(raw) - {"offset_nm", "slope_nm_s_rad", "gain_1_s", "consecutive", "margin", "files"}
         if unknown:
             raise CollisionError(f"{where}: unknown keys {sorted(unknown)}")
         try:
@@ -278,6 +292,7 @@ def calibrate_thresholds(
     slow_rad_s: float = 0.05,
     floor_nm: float = 0.05,
     gain_1_s: float | Sequence[float] = DEFAULT_GAIN_1_S,
+    consecutive: int = DEFAULT_CONSECUTIVE,
     files: Sequence[str] = (),
 ) -> Thresholds:
     """Thresholds from collision-free data by the module docstring's rule.
@@ -286,8 +301,13 @@ def calibrate_thresholds(
     """
     if not residuals or len(residuals) != len(velocities):
         raise CollisionError("calibration needs at least one recording (residuals and velocities alike)")
-    r = np.abs(np.concatenate(residuals)) * margin
-    speed = np.abs(np.concatenate(velocities))
+    if isinstance(consecutive, bool) or not isinstance(consecutive, (int, np.integer)) or consecutive < 1:
+        raise CollisionError(f"consecutive: expected a whole number >= 1, got {consecutive!r}")
+    runs = [(_run_minimum(np.abs(r_k), consecutive), _run_minimum(np.abs(qd_k), consecutive)) for r_k, qd_k in zip(residuals, velocities)]
+    if not any(len(rho) for rho, _ in runs):
+        raise CollisionError(f"calibration needs at least {consecutive} samples in one recording")
+    r = np.concatenate([rho for rho, _ in runs]) * margin
+    speed = np.concatenate([sigma for _, sigma in runs])
     offset = np.empty(N)
     slope = np.zeros(N)
     for j in range(N):
@@ -299,7 +319,14 @@ def calibrate_thresholds(
             moving = ~slow
             if moving.any():
                 slope[j] = max(0.0, float(np.max((r[moving, j] - offset[j]) / speed[moving, j])))
-    return Thresholds(np.maximum(offset, floor_nm), slope, _gain(gain_1_s), float(margin), tuple(files))
+    return Thresholds(np.maximum(offset, floor_nm), slope, _gain(gain_1_s), float(margin), tuple(files), int(consecutive))
+
+
+def _run_minimum(x: np.ndarray, length: int) -> np.ndarray:
+    """The smallest value of every run of ``length`` rows of x (N, 7): (N − length + 1, 7)."""
+    if len(x) < length:
+        return x[:0]
+    return np.lib.stride_tricks.sliding_window_view(x, length, axis=0).min(axis=-1)
 
 
 # ----------------------------------------------------------------------------- detection
@@ -314,24 +341,22 @@ class DetectorState(NamedTuple):
 class CollisionDetector:
     """Hysteresis on |r| against thresholds (module docstring).
 
-    consecutive: samples above before it turns on (≥ 1); release_fraction: of the threshold, below
-    which every joint must stay for hold_s before it turns off.
+    It turns on after ``thresholds.consecutive`` samples in a row above on one joint; release_fraction:
+    of the threshold, below which every joint must stay for hold_s before it turns off.
     """
 
-    def __init__(self, thresholds: Thresholds, *, consecutive: int = 2, release_fraction: float = 0.5, hold_s: float = 0.1) -> None:
-        if consecutive < 1 or not 0 < release_fraction <= 1 or hold_s < 0:
-            raise CollisionError(
-                f"detector: need consecutive >= 1, 0 < release_fraction <= 1, hold_s >= 0; got {consecutive}, {release_fraction}, {hold_s}"
-            )
+    def __init__(self, thresholds: Thresholds, *, release_fraction: float = 0.5, hold_s: float = 0.1) -> None:
+        if not 0 < release_fraction <= 1 or hold_s < 0:
+            raise CollisionError(f"detector: need 0 < release_fraction <= 1, hold_s >= 0; got {release_fraction}, {hold_s}")
         self.thresholds = thresholds
-        self.consecutive = int(consecutive)
+        self.consecutive = thresholds.consecutive
         self.release_fraction = float(release_fraction)
         self.hold_s = float(hold_s)
         self.reset()
 
     def reset(self) -> None:
         """Off, counters cleared."""
-        self._above = 0
+        self._above = np.zeros(N, dtype=np.int64)  # samples in a row above, per joint
         self._quiet_s = 0.0
         self.state = DetectorState(False, ())
 
@@ -339,17 +364,20 @@ class CollisionDetector:
         """The state after one sample: r (7,) N·m, qd (7,) rad/s, dt_s since the last sample."""
         limit = self.thresholds.at(qd)
         above = np.abs(r) > limit
+        counts = self._above
+        counts += 1
+        counts[~above] = 0
         if not self.state.collision:
-            self._above = self._above + 1 if above.any() else 0
-            if self._above >= self.consecutive:
+            on = counts >= self.consecutive
+            if on.any():
                 self._quiet_s = 0.0
-                self.state = DetectorState(True, tuple(int(j) for j in np.flatnonzero(above)))
+                self.state = DetectorState(True, tuple(int(j) for j in np.flatnonzero(on)))
             return self.state
         joints = tuple(sorted(set(self.state.joints) | {int(j) for j in np.flatnonzero(above)}))
         if np.all(np.abs(r) < self.release_fraction * limit):
             self._quiet_s += dt_s
             if self._quiet_s >= self.hold_s:
-                self._above = 0
+                counts[:] = 0
                 self.state = DetectorState(False, ())
                 return self.state
         else:
@@ -368,4 +396,4 @@ def detect(detector: CollisionDetector, r: np.ndarray, qd: np.ndarray, stamps_ns
 def public_detector() -> CollisionDetector:
     """The public scheme's detector: fixed :data:`PUBLIC_THRESHOLDS_NM`, on at the first sample
     above, off at the first sample with every joint below."""
-    return CollisionDetector(Thresholds(np.array(PUBLIC_THRESHOLDS_NM)), consecutive=1, release_fraction=1.0, hold_s=0.0)
+    return CollisionDetector(Thresholds(np.array(PUBLIC_THRESHOLDS_NM), consecutive=1), release_fraction=1.0, hold_s=0.0)

@@ -133,11 +133,12 @@ def test_public_scheme_thresholds_and_detector() -> None:
 
 
 def test_detector_hysteresis() -> None:
-    thresholds = Thresholds(np.full(7, 2.0), slope_nm_s_rad=np.full(7, 1.0))
-    detector = CollisionDetector(thresholds, consecutive=3, release_fraction=0.5, hold_s=0.05)
+    thresholds = Thresholds(np.full(7, 2.0), slope_nm_s_rad=np.full(7, 1.0), consecutive=3)
+    detector = CollisionDetector(thresholds, release_fraction=0.5, hold_s=0.05)
     n = 40
     r, qd = np.zeros((n, 7)), np.zeros((n, 7))
     r[5:7, 2] = 3.0  # two samples above: not enough
+    r[7, 3] = 3.0  # a third sample above, on another joint: still not enough
     r[10:20, 2] = 3.0  # on at the third sample (12)
     r[14:20, 4] = -2.5
     r[20:24, 2] = 1.5  # below the threshold but above half of it: stays on
@@ -154,17 +155,17 @@ def test_detector_hysteresis() -> None:
         state = detector.update(r[k], qd[k], 0.01)
     assert state.collision and state.joints == (2, 4)
     with pytest.raises(CollisionError, match="consecutive"):
-        CollisionDetector(thresholds, consecutive=0)
+        Thresholds(np.full(7, 2.0), consecutive=0)
 
 
 def test_thresholds_yaml_round_trip_and_errors(tmp_path: Path) -> None:
-    thresholds = Thresholds(np.arange(1.0, 8.0), np.linspace(0, 1, 7), np.full(7, 25.0), 1.5, ("a.bag",))
+    thresholds = Thresholds(np.arange(1.0, 8.0), np.linspace(0, 1, 7), np.full(7, 25.0), 1.5, ("a.bag",), consecutive=3)
     path = tmp_path / "thresholds.yaml"
     write_thresholds(path, thresholds)
     back = read_thresholds(path)
     for name in ("offset_nm", "slope_nm_s_rad", "gain_1_s"):
         np.testing.assert_array_equal(getattr(back, name), getattr(thresholds, name))
-    assert back.margin == 1.5 and back.files == ("a.bag",)
+    assert back.margin == 1.5 and back.files == ("a.bag",) and back.consecutive == 3
     assert "s0: 1.0" in path.read_text()
     path.write_text("offset_nm: {s0: 1, s1: 1}\n")
     with pytest.raises(CollisionError, match="thresholds.yaml: offset_nm: expected the joints"):
@@ -178,14 +179,38 @@ def test_calibrated_thresholds_cover_the_data_with_the_margin() -> None:
     qd = rng.uniform(-1.0, 1.0, (500, 7))
     qd[:50] = 0.01
     r = (0.2 + 0.5 * np.abs(qd)) * rng.uniform(-1, 1, (500, 7))
-    thresholds = calibrate_thresholds([r[:250], r[250:]], [qd[:250], qd[250:]], margin=1.5)
+    thresholds = calibrate_thresholds([r[:250], r[250:]], [qd[:250], qd[250:]], margin=1.5, consecutive=1)
     assert np.all(thresholds.at(qd) >= 1.5 * np.abs(r) - 1e-12)
     assert np.all(thresholds.slope_nm_s_rad > 0.3) and np.all(thresholds.offset_nm <= 1.5 * (0.2 + 0.5 * 0.05))
-    constant = calibrate_thresholds([r], [qd], margin=2.0, speed_dependent=False)
+    constant = calibrate_thresholds([r], [qd], margin=2.0, speed_dependent=False, consecutive=1)
     np.testing.assert_allclose(constant.offset_nm, 2.0 * np.abs(r).max(axis=0))
     assert np.all(constant.slope_nm_s_rad == 0)
     with pytest.raises(CollisionError, match="margin: expected a number >= 1"):
         calibrate_thresholds([r], [qd], margin=0.5)
+
+
+@pytest.mark.parametrize("consecutive", [2, 3, 5])
+def test_thresholds_for_runs_never_fire_on_their_calibration_data(consecutive: int) -> None:
+    # Spiky residuals: single samples far above the rest, which a run of `consecutive` samples ignores.
+    rng = np.random.default_rng(consecutive)
+    qd = rng.uniform(-1.0, 1.0, (2000, 7))
+    r = (0.2 + 0.5 * np.abs(qd)) * rng.uniform(-1, 1, (2000, 7))
+    r[rng.integers(0, 2000, 40)] *= 10.0
+    parts = [slice(0, 700), slice(700, 2000)]
+    for margin in (1.0, 1.5):
+        thresholds = calibrate_thresholds([r[p] for p in parts], [qd[p] for p in parts], margin=margin, consecutive=consecutive)
+        assert thresholds.consecutive == consecutive
+        stamps_ns = np.arange(2000) * 10_000_000
+        for p in parts:
+            # The rule's promise at margin m: no run of `consecutive` samples is above the threshold / m throughout.
+            scaled = Thresholds(thresholds.offset_nm / margin, thresholds.slope_nm_s_rad / margin, consecutive=consecutive)
+            assert not detect(CollisionDetector(scaled), r[p], qd[p], stamps_ns[p]).any()
+    single = calibrate_thresholds([r], [qd], consecutive=1)
+    assert thresholds.at(qd).mean() < 0.5 * single.at(qd).mean()  # the spikes no longer set the thresholds
+    with pytest.raises(CollisionError, match="consecutive: expected a whole number >= 1"):
+        calibrate_thresholds([r], [qd], consecutive=0)
+    with pytest.raises(CollisionError, match="at least 5 samples"):
+        calibrate_thresholds([r[:4]], [qd[:4]], consecutive=5)
 
 
 def test_simulated_collisions_ground_truth(arm: ArmModel, pushed, tmp_path: Path) -> None:
@@ -223,9 +248,9 @@ def test_calibrate_cli(tmp_path: Path, pushed, capsys: pytest.CaptureFixture[str
     rec = free.recording()
     write_joint_states(bag, rec.stamps_ns, rec.joint_names, rec.q, rec.qd, rec.effort)
     out = tmp_path / "thresholds.yaml"
-    assert main(["calibrate", str(bag), "--out", str(out), "--margin", "2"]) == 0
+    assert main(["calibrate", str(bag), "--out", str(out), "--margin", "2", "--consecutive", "1"]) == 0
     thresholds = read_thresholds(out)
-    assert thresholds.files == (str(bag),) and thresholds.margin == 2.0
+    assert thresholds.files == (str(bag),) and thresholds.margin == 2.0 and thresholds.consecutive == 1
     r = observe(load_arm_model("right"), read_recording(bag), GAIN)
     assert np.all(thresholds.at(rec.qd) >= 2 * np.abs(r) - 1e-9)
     before = out.read_text()
