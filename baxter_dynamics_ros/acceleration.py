@@ -18,6 +18,7 @@ dominated its torque errors. Three estimators, all on (..., 7) arrays:
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 __all__ = ["FirstDifference", "LowPassDifferentiator", "first_difference", "zero_phase_acceleration"]
 
@@ -85,22 +86,13 @@ class LowPassDifferentiator:
 
     def update(self, qd: np.ndarray, dt_s: float) -> np.ndarray:
         """Feed q̇ (7,) rad/s measured dt_s seconds after the previous sample; returns q̈ (7,) rad/s²."""
-        u = np.array(qd, dtype=float)
+        u = np.asarray(qd, dtype=np.float64)
         if self._x is None:
-            self._x, self._xd, self._u = u.copy(), np.zeros_like(u), u
+            self._x, self._xd, self._u = u.copy(), np.zeros_like(u), u.copy()
             return np.zeros_like(u)
         if not (np.isfinite(dt_s) and dt_s > 0):
             raise ValueError(f"dt_s must be positive and finite, got {dt_s}")
-        # State z = (x, ẋ), ż = A z + B u, A = [[0, 1], [−ω², −2ζω]], B = [0, ω²]; trapezoidal step
-        # z⁺ = (I − hA)⁻¹ [(I + hA) z + hB (u + u⁺)], h = Δt/2, written out for the 2×2 case.
-        w2, c, h = self._wc**2, 2.0 * self.damping * self._wc, 0.5 * dt_s
-        x, xd = self._x, self._xd
-        r0 = x + h * xd
-        r1 = -h * w2 * x + (1.0 - h * c) * xd + h * w2 * (self._u + u)
-        det = 1.0 + h * c + h * h * w2
-        self._x = ((1.0 + h * c) * r0 + h * r1) / det
-        self._xd = (-h * w2 * r0 + r1) / det
-        self._u = u
+        _lowpass_step(self._x, self._xd, self._u, u, self._wc, self.damping, dt_s)
         return self._xd.copy()
 
     def run(self, qd: np.ndarray, stamps_s: np.ndarray) -> np.ndarray:
@@ -114,6 +106,23 @@ class LowPassDifferentiator:
             out[k] = self.update(qd[k], stamps_s[k] - previous)
             previous = stamps_s[k]
         return out
+
+
+@njit(cache=True)
+def _lowpass_step(x, xd, u_previous, u, wc, damping, dt_s):
+    """One step of :class:`LowPassDifferentiator`, in place on the (7,) states x, ẋ; u_previous := u.
+
+    State z = (x, ẋ), ż = A z + B u, A = [[0, 1], [−ω², −2ζω]], B = [0, ω²]; trapezoidal step
+    z⁺ = (I − hA)⁻¹ [(I + hA) z + hB (u + u⁺)], h = Δt/2, written out for the 2×2 case.
+    """
+    w2, c, h = wc * wc, 2.0 * damping * wc, 0.5 * dt_s
+    det = 1.0 + h * c + h * h * w2
+    for j in range(x.shape[0]):
+        r0 = x[j] + h * xd[j]
+        r1 = -h * w2 * x[j] + (1.0 - h * c) * xd[j] + h * w2 * (u_previous[j] + u[j])
+        x[j] = ((1.0 + h * c) * r0 + h * r1) / det
+        xd[j] = (-h * w2 * r0 + r1) / det
+        u_previous[j] = u[j]
 
 
 def zero_phase_acceleration(

@@ -48,6 +48,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 import yaml
+from numba import njit
 
 from . import lagrange_euler
 from .arm_model import ArmModel
@@ -120,7 +121,9 @@ class MomentumObserver:
         self.arm = arm
         self.gain_1_s = _gain(gain_1_s)
         self.compensation = compensation
+        self._model = _model(arm, compensation)
         self._sample = np.zeros((3, 1, N))  # q, q̇, τ_meas of one sample as (1, 7) rows: no per-call allocation
+        self._terms = np.zeros((2, 1, N))  # p and Cᵀ q̇ − G of that sample
         self.reset()
 
     def reset(self) -> None:
@@ -131,28 +134,35 @@ class MomentumObserver:
 
     def update(self, q: np.ndarray, qd: np.ndarray, tau_meas: np.ndarray, dt_s: float) -> np.ndarray:
         """r (7,) N·m for one sample: q (7,) rad, qd (7,) rad/s, tau_meas (7,) N·m, dt_s since the last one."""
-        sample = self._sample
+        sample, terms, model = self._sample, self._terms, self._model
         sample[0, 0], sample[1, 0], sample[2, 0] = q, qd, tau_meas
-        p, beta = momentum_terms(self.arm, sample[0], sample[1], sample[2], self.compensation)
-        return self._step(p[0], beta[0], dt_s)
+        if self.compensation is not None:
+            sample[2] -= self.compensation.torque(sample[0], sample[1], np.zeros((1, N)))
+        # The compiled kernel of momentum_terms, without its front's per-call checks.
+        lagrange_euler.batch_momentum_terms(
+            model.dh, model.pseudo_inertias, model.gravity_m_s2, sample[0], sample[1], MDOT_STEP_S, terms[0], terms[1]
+        )  # fmt: skip
+        terms[1] += sample[2]
+        return self._step(terms[0, 0], terms[1, 0], dt_s)
 
     def _step(self, p: np.ndarray, beta: np.ndarray, dt_s: float) -> np.ndarray:
+        """r (7,) of the sample with p and β (7,), dt_s after the last one (the first sets p(0))."""
         if self._p0 is None:
             self._p0 = p.copy()
             self.r = np.zeros(N)
             return self.r.copy()
-        k = self.gain_1_s
-        # r = K (I + β Δt − (p − p0)) / (1 + K Δt), then I += (β − r) Δt; in place, on (7,) arrays.
-        r = beta * dt_s
-        r += self._integral
-        r -= p
-        r += self._p0
-        r *= k / (1.0 + k * dt_s)
+        r = np.empty(N)
+        _observer_step(p, beta, self._p0, self._integral, self.gain_1_s, dt_s, r)
         self.r = r
-        beta -= r
-        beta *= dt_s
-        self._integral += beta
         return r.copy()
+
+
+@njit(cache=True)
+def _observer_step(p, beta, p0, integral, k, dt_s, r):
+    """r = K (I + β Δt − (p − p0)) / (1 + K Δt), then I += (β − r) Δt, on (7,) arrays (r, I in place)."""
+    for j in range(p.shape[0]):
+        r[j] = k[j] * (integral[j] + beta[j] * dt_s - p[j] + p0[j]) / (1.0 + k[j] * dt_s)
+        integral[j] += (beta[j] - r[j]) * dt_s
 
 
 def observe(arm: ArmModel, recording: Recording, gain_1_s: float | Sequence[float] = DEFAULT_GAIN_1_S, compensation: Compensation | None = None) -> np.ndarray:

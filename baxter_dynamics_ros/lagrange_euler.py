@@ -20,8 +20,11 @@ enters as the base acceleration Ẇ_0 = [[0, −g], [0, 0]], so one forward and 
 give τ; G, C and M reuse the same sweep. Cost per sample is O(n) for τ and O(n²) for M,
 against O(n⁴) for the literal triple sums.
 
-Kernels are compiled with numba and loop over samples; the public functions take (..., 7)
-arrays and keep the leading batch shape.
+Kernels are compiled with numba and loop over samples; the front functions take (..., 7)
+arrays, check them and keep the leading batch shape. The batch kernels (``batch_*``,
+:func:`cholesky_solve`) are public too, for per-sample loops (the live node, the simulator's
+integrator) that cannot afford the fronts' checks: they take C-contiguous float64 (M, 7) arrays,
+write into preallocated outputs, and check nothing.
 """
 
 from __future__ import annotations
@@ -32,6 +35,14 @@ from numba import njit
 from .errors import InputShapeError
 
 __all__ = [
+    "batch_forward_dynamics",
+    "batch_gravity",
+    "batch_inertial_regressor",
+    "batch_inverse_dynamics",
+    "batch_kinematics",
+    "batch_mass_matrix",
+    "batch_momentum_terms",
+    "cholesky_solve",
     "coriolis",
     "forward_dynamics",
     "forward_kinematics",
@@ -280,7 +291,8 @@ def _mass_from_composite(S, Jc, out, B):
 
 # ----------------------------------------------------------------------------- kernels (batches)
 @njit(cache=True)
-def _batch_inverse_dynamics(dh, J, g, q, qd, qdd, use_gravity, out):
+def batch_inverse_dynamics(dh, J, g, q, qd, qdd, use_gravity, out):
+    """out (M, 7) = τ(q, q̇, q̈) of every row (without G when use_gravity is False); J (7, 4, 4) pseudo-inertias."""
     K = _dh_constants(dh)
     T = np.empty((N + 1, 4, 4))
     B = np.empty((4, 4))
@@ -297,7 +309,8 @@ def _batch_inverse_dynamics(dh, J, g, q, qd, qdd, use_gravity, out):
 
 
 @njit(cache=True)
-def _batch_gravity(dh, J, g, q, out):
+def batch_gravity(dh, J, g, q, out):
+    """out (M, 7) = G(q) of every row."""
     K = _dh_constants(dh)
     T = np.empty((N + 1, 4, 4))
     S = np.empty((N, 6))
@@ -308,7 +321,8 @@ def _batch_gravity(dh, J, g, q, out):
 
 
 @njit(cache=True)
-def _batch_mass_matrix(dh, J, q, out):
+def batch_mass_matrix(dh, J, q, out):
+    """out (M, 7, 7) = M(q) of every row."""
     K = _dh_constants(dh)
     T = np.empty((N + 1, 4, 4))
     B = np.empty((4, 4))
@@ -341,7 +355,7 @@ def inertial_basis() -> np.ndarray:
 
 
 @njit(cache=True)
-def _batch_inertial_regressor(dh, E, g, q, qd, qdd, out):
+def batch_inertial_regressor(dh, E, g, q, qd, qdd, out):
     """out (M, 7, 70): τ = Y π, π the 10 inertial parameters of each link in turn (eq. 5 is linear in J_j)."""
     K = _dh_constants(dh)
     n_par = E.shape[0]
@@ -368,7 +382,7 @@ def _batch_inertial_regressor(dh, E, g, q, qd, qdd, out):
 
 
 @njit(cache=True)
-def _batch_momentum_terms(dh, J, g, q, qd, eps, p_out, w_out):
+def batch_momentum_terms(dh, J, g, q, qd, eps, p_out, w_out):
     """p = M(q) q̇ and w = Ṁ q̇ − (C(q, q̇) q̇ + G(q)) per sample, Ṁ = (M(q + ε q̇) − M(q − ε q̇)) / 2ε."""
     K = _dh_constants(dh)
     T = np.empty((N + 1, 4, 4))
@@ -414,7 +428,7 @@ def _batch_momentum_terms(dh, J, g, q, qd, eps, p_out, w_out):
 
 
 @njit(cache=True)
-def _cholesky_solve(Mm, b, L, x):
+def cholesky_solve(Mm, b, L, x):
     """x = M⁻¹ b for a symmetric positive-definite (7, 7) M; L is (7, 7) scratch."""
     for i in range(N):
         for j in range(i + 1):
@@ -438,7 +452,8 @@ def _cholesky_solve(Mm, b, L, x):
 
 
 @njit(cache=True)
-def _batch_forward_dynamics(dh, J, g, q, qd, tau, out):
+def batch_forward_dynamics(dh, J, g, q, qd, tau, out):
+    """out (M, 7) = q̈ = M⁻¹ (τ − C − G) of every row."""
     K = _dh_constants(dh)
     T = np.empty((N + 1, 4, 4))
     B = np.empty((4, 4))
@@ -461,11 +476,12 @@ def _batch_forward_dynamics(dh, J, g, q, qd, tau, out):
         _rne_sweep(S, Jb, qd[n], zero, g, True, h, Dsum, Phi, D)
         for i in range(N):
             h[i] = tau[n, i] - h[i]
-        _cholesky_solve(Mm, h, L, out[n])
+        cholesky_solve(Mm, h, L, out[n])
 
 
 @njit(cache=True)
-def _batch_kinematics(dh, q, pose, jac):
+def batch_kinematics(dh, q, pose, jac):
+    """pose (M, 4, 4) of the last frame and its geometric Jacobian jac (M, 6, 7) (linear rows first) of every row."""
     K = _dh_constants(dh)
     T = np.empty((N + 1, 4, 4))
     for n in range(q.shape[0]):
@@ -512,7 +528,7 @@ def inverse_dynamics(dh, pseudo_inertias, gravity_m_s2, q, qd, qdd) -> np.ndarra
     """τ = M q̈ + C + G (eq. 5), N·m, shape of q; q, qd, qdd (..., 7) in rad, rad/s, rad/s²."""
     (q2, qd2, qdd2), lead = _as_batches(q=q, qd=qd, qdd=qdd)
     out = np.empty_like(q2)
-    _batch_inverse_dynamics(dh, pseudo_inertias, gravity_m_s2, q2, qd2, qdd2, True, out)
+    batch_inverse_dynamics(dh, pseudo_inertias, gravity_m_s2, q2, qd2, qdd2, True, out)
     return out.reshape(lead + (N,))
 
 
@@ -520,7 +536,7 @@ def coriolis(dh, pseudo_inertias, q, qd) -> np.ndarray:
     """The Coriolis/centrifugal vector C(q, q̇) of eq. (7), N·m, shape of q."""
     (q2, qd2), lead = _as_batches(q=q, qd=qd)
     out = np.empty_like(q2)
-    _batch_inverse_dynamics(dh, pseudo_inertias, np.zeros(3), q2, qd2, np.zeros_like(q2), False, out)
+    batch_inverse_dynamics(dh, pseudo_inertias, np.zeros(3), q2, qd2, np.zeros_like(q2), False, out)
     return out.reshape(lead + (N,))
 
 
@@ -528,7 +544,7 @@ def gravity(dh, pseudo_inertias, gravity_m_s2, q) -> np.ndarray:
     """G(q) of eq. (8), N·m, shape of q; q (..., 7) rad."""
     q2, lead = _as_batch("q", q)
     out = np.empty_like(q2)
-    _batch_gravity(dh, pseudo_inertias, gravity_m_s2, q2, out)
+    batch_gravity(dh, pseudo_inertias, gravity_m_s2, q2, out)
     return out.reshape(lead + (N,))
 
 
@@ -536,7 +552,7 @@ def mass_matrix(dh, pseudo_inertias, q) -> np.ndarray:
     """M(q) of eq. (6), kg·m², (..., 7, 7); q (..., 7) rad."""
     q2, lead = _as_batch("q", q)
     out = np.empty((q2.shape[0], N, N))
-    _batch_mass_matrix(dh, pseudo_inertias, q2, out)
+    batch_mass_matrix(dh, pseudo_inertias, q2, out)
     return out.reshape(lead + (N, N))
 
 
@@ -544,7 +560,7 @@ def forward_dynamics(dh, pseudo_inertias, gravity_m_s2, q, qd, tau) -> np.ndarra
     """q̈ = M⁻¹(τ − C − G), rad/s², shape of q; q, qd, tau (..., 7) in rad, rad/s, N·m."""
     (q2, qd2, tau2), lead = _as_batches(q=q, qd=qd, tau=tau)
     out = np.empty_like(q2)
-    _batch_forward_dynamics(dh, pseudo_inertias, gravity_m_s2, q2, qd2, tau2, out)
+    batch_forward_dynamics(dh, pseudo_inertias, gravity_m_s2, q2, qd2, tau2, out)
     return out.reshape(lead + (N,))
 
 
@@ -556,7 +572,7 @@ def inertial_regressor(dh, gravity_m_s2, q, qd, qdd) -> np.ndarray:
     """
     (q2, qd2, qdd2), lead = _as_batches(q=q, qd=qd, qdd=qdd)
     out = np.empty((q2.shape[0], N, 10 * N))
-    _batch_inertial_regressor(dh, inertial_basis(), gravity_m_s2, q2, qd2, qdd2, out)
+    batch_inertial_regressor(dh, inertial_basis(), gravity_m_s2, q2, qd2, qdd2, out)
     return out.reshape(lead + (N, 10 * N))
 
 
@@ -569,7 +585,7 @@ def momentum_terms(dh, pseudo_inertias, gravity_m_s2, q, qd, eps: float) -> tupl
     (q2, qd2), lead = _as_batches(q=q, qd=qd)
     p = np.empty_like(q2)
     w = np.empty_like(q2)
-    _batch_momentum_terms(dh, pseudo_inertias, gravity_m_s2, q2, qd2, float(eps), p, w)
+    batch_momentum_terms(dh, pseudo_inertias, gravity_m_s2, q2, qd2, float(eps), p, w)
     return p.reshape(lead + (N,)), w.reshape(lead + (N,))
 
 
@@ -577,7 +593,7 @@ def _kinematics(dh, q) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
     q2, lead = _as_batch("q", q)
     pose = np.empty((q2.shape[0], 4, 4))
     jac = np.empty((q2.shape[0], 6, N))
-    _batch_kinematics(dh, q2, pose, jac)
+    batch_kinematics(dh, q2, pose, jac)
     return pose, jac, lead
 
 

@@ -281,9 +281,7 @@ class DynamicsNode(Node):
                     if message is not None and publisher.get_subscription_count():
                         publisher.publish(message)
                 if result.residual is not None:  # a sample with effort
-                    changed = self._monitor.update(
-                        result.stamp_ns, result.external_torque, result.qd, result.q, result.residual + result.tau
-                    )
+                    changed = self._monitor.update(result.stamp_ns, result.external_torque, result.qd, result.q, result.effort)
                     if changed is not None:
                         self._collision_publisher.publish(Bool(data=changed))
             self._health.record(result, time.perf_counter_ns() - start_ns)

@@ -44,7 +44,9 @@ from enum import Enum, IntEnum
 from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 
+from . import lagrange_euler
 from .acceleration import FirstDifference, LowPassDifferentiator
 from .arm_model import ArmModel
 from .collision import DEFAULT_GAIN_1_S, MomentumObserver
@@ -118,7 +120,7 @@ class ModelTorques(NamedTuple):
     """The pipeline's output for one sample, all (7,): q rad, qd rad/s (measured, or differenced
     from positions when ``qd_from_positions``), qdd rad/s² (estimated), gravity G(q), tau (eq. 1),
     residual = effort − tau and external_torque = the momentum observer's r, in N·m (both None
-    without effort)."""
+    without effort); effort: the measured one it came from (None without)."""
 
     stamp_ns: int
     q: np.ndarray
@@ -129,6 +131,7 @@ class ModelTorques(NamedTuple):
     residual: np.ndarray | None
     qd_from_positions: bool
     external_torque: np.ndarray | None = None
+    effort: np.ndarray | None = None
 
 
 def make_estimator(name: str, cutoff_hz: float) -> LowPassDifferentiator | FirstDifference:
@@ -143,8 +146,17 @@ def make_estimator(name: str, cutoff_hz: float) -> LowPassDifferentiator | First
         raise SettingsError(f"cutoff_hz: {err}") from err
 
 
+@njit(cache=True)
+def _finite(x: np.ndarray) -> bool:
+    for v in x.flat:
+        if not np.isfinite(v):
+            return False
+    return True
+
+
 def _all_finite(x: np.ndarray | None) -> bool:
-    return x is None or bool(np.isfinite(x).all())
+    """Whether x holds no NaN or ±inf (None: True); compiled, as the node asks it six times a sample."""
+    return x is None or _finite(x)
 
 
 class ResidualPipeline:
@@ -188,8 +200,11 @@ class ResidualPipeline:
         self._last_q = None
 
     def _dynamics(self) -> np.ndarray:
-        """(2, 7): τ of the batch rows set in _q2, _qd2, _qdd2."""
-        return self.arm.inverse_dynamics(self._q2, self._qd2, self._qdd2)
+        """(2, 7): τ of the batch rows set in _q2, _qd2, _qdd2 (the compiled kernel: no per-call checks)."""
+        out = np.empty((2, 7))
+        arm = self.arm
+        lagrange_euler.batch_inverse_dynamics(arm.dh, arm.pseudo_inertias, arm.gravity_m_s2, self._q2, self._qd2, self._qdd2, True, out)
+        return out
 
     def process(self, sample: ArmSample, observe: bool = True) -> ModelTorques | SkipReason:
         """The model's torques for one sample, or why it was skipped.
@@ -236,7 +251,7 @@ class ResidualPipeline:
             self.reset()
             return SkipReason.NON_FINITE_MODEL
         return ModelTorques(
-            stamp_ns, q, qd, qdd, tau_and_gravity[1], tau_and_gravity[0], residual, qd_from_positions, external_torque
+            stamp_ns, q, qd, qdd, tau_and_gravity[1], tau_and_gravity[0], residual, qd_from_positions, external_torque, effort
         )
 
 

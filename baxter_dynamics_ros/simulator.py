@@ -471,15 +471,15 @@ def _acceleration(dh, J, g, armature, viscous, friction, spring, q, qd, tau, out
     _plant_share(q[0], qd[0], viscous, friction, spring, rhs[0])
     rhs[0] = tau[0] - rhs[0]
     if not np.any(armature):
-        lagrange_euler._batch_forward_dynamics(dh, J, g, q, qd, rhs, out)
+        lagrange_euler.batch_forward_dynamics(dh, J, g, q, qd, rhs, out)
         return
     m = np.empty((1, N, N))
     h = np.empty((1, N))
-    lagrange_euler._batch_mass_matrix(dh, J, q, m)
-    lagrange_euler._batch_inverse_dynamics(dh, J, g, q, qd, np.zeros((1, N)), True, h)
+    lagrange_euler.batch_mass_matrix(dh, J, q, m)
+    lagrange_euler.batch_inverse_dynamics(dh, J, g, q, qd, np.zeros((1, N)), True, h)
     for j in range(N):
         m[0, j, j] += armature[j]
-    lagrange_euler._cholesky_solve(m[0], rhs[0] - h[0], np.empty((N, N)), out[0])
+    lagrange_euler.cholesky_solve(m[0], rhs[0] - h[0], np.empty((N, N)), out[0])
 
 
 @njit(cache=True)
@@ -516,7 +516,7 @@ def _external_torque(dh, coll_time, coll_force, coll_torque, t, q, pose, jac, ou
         else:
             edge = min(s, duration - s)
             scale = 1.0 if edge >= ramp else 0.5 - 0.5 * np.cos(np.pi * edge / ramp)
-        lagrange_euler._batch_kinematics(dh, q, pose, jac)
+        lagrange_euler.batch_kinematics(dh, q, pose, jac)
         for j in range(N):
             out[j] += scale * (coll_torque[c, j] + jac[0, 0, j] * coll_force[c, 0] + jac[0, 1, j] * coll_force[c, 1] + jac[0, 2, j] * coll_force[c, 2])
 
@@ -551,8 +551,8 @@ def _run(
     for step in range(total):
         t = (step - n_settle) * dt
         _reference(ref_q, ref_qd, ref_dt, t, qr, qdr)
-        lagrange_euler._batch_gravity(dh, j_nominal, g, q, grav)
-        lagrange_euler._batch_mass_matrix(dh, j_true, q, inertia)
+        lagrange_euler.batch_gravity(dh, j_nominal, g, q, grav)
+        lagrange_euler.batch_mass_matrix(dh, j_true, q, inertia)
         for j in range(N):
             inertia[0, j, j] += armature[j]
             eps_dot = qdr[j] + kp * (qr[j] - q[0, j]) + kd * (qdr[j] - qd[0, j]) - qd[0, j]  # eq. 14: q̇_d − q̇

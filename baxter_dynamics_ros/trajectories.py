@@ -159,7 +159,7 @@ def cartesian_target(name: str, t_s: np.ndarray, side: str = "right", ramp_s: fl
 @njit(cache=True)
 def _ik_velocity(dh, base, q, x_d, xd_d, rot_d, q_seed, pose, jac, qd_out):
     """q̇ = J⁺(ẋ_d + K_x e) + (𝟙 − J⁺J) K_n (q_seed − q); J⁺ = Jᵀ(JJᵀ + λ²𝟙)⁻¹; torso-frame task."""
-    lagrange_euler._batch_kinematics(dh, q.reshape(1, N), pose, jac)
+    lagrange_euler.batch_kinematics(dh, q.reshape(1, N), pose, jac)
     rb = base[:3, :3].copy()
     rot = rb @ pose[0, :3, :3].copy()
     pos = rb @ pose[0, :3, 3].copy() + base[:3, 3]

@@ -68,6 +68,7 @@ def test_outputs_are_the_core_with_the_lowpass_estimator_on_the_stamps(states) -
     assert_close(stacked(results, "residual"), effort - tau, "residual", atol=TOL)
     np.testing.assert_array_equal(stacked(results, "stamp_ns"), stamps)
     np.testing.assert_array_equal(stacked(results, "qd"), qd)
+    np.testing.assert_array_equal(stacked(results, "effort"), effort)
     assert not any(r.qd_from_positions for r in results)
 
 
