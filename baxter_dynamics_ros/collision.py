@@ -36,7 +36,9 @@ c = 1 this is margin · |r_j| below the threshold on every calibration sample. `
 stored with the thresholds and used by the detector.
 
 Detector (:class:`CollisionDetector`): on when some joint's |r_j| > threshold_j for ≥ ``consecutive``
-samples in a row; off once every |r_j| < ``release_fraction`` · threshold_j for ``hold_s``.
+samples in a row; off once every |r_j| < ``release_fraction`` · threshold_j for ``hold_s``. The
+release fraction defaults to 1 / margin, the level the calibration data stayed under: lower, and
+normal motion alone keeps the detector on after a contact.
 """
 
 from __future__ import annotations
@@ -352,10 +354,13 @@ class CollisionDetector:
     """Hysteresis on |r| against thresholds (module docstring).
 
     It turns on after ``thresholds.consecutive`` samples in a row above on one joint; release_fraction:
-    of the threshold, below which every joint must stay for hold_s before it turns off.
+    of the threshold, below which every joint must stay for hold_s before it turns off (default
+    1 / ``thresholds.margin``).
     """
 
-    def __init__(self, thresholds: Thresholds, *, release_fraction: float = 0.5, hold_s: float = 0.1) -> None:
+    def __init__(self, thresholds: Thresholds, *, release_fraction: float | None = None, hold_s: float = 0.1) -> None:
+        if release_fraction is None:
+            release_fraction = 1.0 / thresholds.margin
         if not 0 < release_fraction <= 1 or hold_s < 0:
             raise CollisionError(f"detector: need 0 < release_fraction <= 1, hold_s >= 0; got {release_fraction}, {hold_s}")
         self.thresholds = thresholds

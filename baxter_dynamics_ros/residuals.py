@@ -184,7 +184,15 @@ class ResidualPipeline:
         self._q2 = np.zeros((2, 7))
         self._qd2 = np.zeros((2, 7))
         self._qdd2 = np.zeros((2, 7))
-        self._dynamics()  # load the compiled core now rather than on the first sample
+        self._warm_up()
+
+    def _warm_up(self) -> None:
+        """Load every compiled kernel a sample uses (numba's cache, or a compilation) now rather than
+        on the first samples, where it would stall the node; then start afresh."""
+        zero = np.zeros(7)
+        for stamp_ns in (0, 1_000_000):
+            self.process(ArmSample(stamp_ns, zero, zero, zero), observe=True)
+        self.reset()
 
     def configure(self, estimator: str, cutoff_hz: float) -> None:
         """Switch to another estimator (or cutoff); the state starts afresh."""

@@ -24,7 +24,7 @@ first sample above.
 
 Figures: detection rate of the contacts whose peak external joint torque reaches the goal size
 (≥ 3 N·m at s0–e1 or ≥ 1 N·m at the wrist) and of all contacts, delay (first detection − contact
-start; median and p95, ms), false positives per hour (rising edges outside every contact window,
+start; median and p95, ms), release (contact end → detector off, of the detected contacts), false positives per hour (rising edges outside every contact window,
 a window running to 0.5 s after the contact's end). Goals: no false positive on collision-free
 recordings; ≥ 95 % of goal-size contacts detected with a median delay ≤ 50 ms.
 
@@ -70,6 +70,7 @@ class Tally:
     detected: list[bool] = field(default_factory=list)
     goal: list[bool] = field(default_factory=list)
     delays_ms: list[float] = field(default_factory=list)  # of the detected goal-size contacts
+    releases_ms: list[float] = field(default_factory=list)  # contact end → off, of the detected contacts
 
     def add(self, on: np.ndarray, t_s: np.ndarray, windows: list[tuple[float, float, bool]]) -> None:
         self.hours += (t_s[-1] - t_s[0]) / 3600.0
@@ -83,6 +84,9 @@ class Tally:
             self.goal.append(goal)
             if goal and on_in.any():
                 self.delays_ms.append(1e3 * (t_s[np.argmax(on_in)] - start))
+            off_after = ~on & (t_s > end)
+            if on_in.any() and off_after.any():
+                self.releases_ms.append(1e3 * (t_s[np.argmax(off_after)] - end))
         self.false_positives += int((~inside).sum())
 
     def summary(self) -> str:
@@ -92,10 +96,12 @@ class Tally:
         if len(goal):
             rate_goal = detected[goal].mean() * 100 if goal.any() else float("nan")
             delays = np.array(self.delays_ms) if self.delays_ms else np.array([np.nan])
+            releases = np.array(self.releases_ms) if self.releases_ms else np.array([np.nan])
             parts.append(
                 f"detected {detected[goal].sum()}/{goal.sum()} goal-size ({rate_goal:.1f} %), "
                 f"{detected.sum()}/{len(detected)} all ({detected.mean() * 100:.1f} %); "
-                f"delay median {np.median(delays):.0f} ms, p95 {np.percentile(delays, 95):.0f} ms"
+                f"delay median {np.median(delays):.0f} ms, p95 {np.percentile(delays, 95):.0f} ms; "
+                f"off after the contact: median {np.median(releases):.0f} ms, p95 {np.percentile(releases, 95):.0f} ms"
             )
         return "; ".join(parts)
 

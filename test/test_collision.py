@@ -156,6 +156,9 @@ def test_detector_hysteresis() -> None:
     assert state.collision and state.joints == (2, 4)
     with pytest.raises(CollisionError, match="consecutive"):
         Thresholds(np.full(7, 2.0), consecutive=0)
+    # By default it turns off below the level the calibration data stayed under: threshold / margin.
+    assert CollisionDetector(Thresholds(np.full(7, 2.0), margin=1.5)).release_fraction == pytest.approx(1 / 1.5)
+    assert CollisionDetector(Thresholds(np.full(7, 2.0))).release_fraction == 1.0
 
 
 def test_thresholds_yaml_round_trip_and_errors(tmp_path: Path) -> None:
