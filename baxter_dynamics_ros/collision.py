@@ -97,6 +97,13 @@ def _gain(gain_1_s: float | Sequence[float]) -> np.ndarray:
     return k
 
 
+def _consecutive(value: Any) -> int:
+    """``consecutive`` checked: a whole number ≥ 1."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise CollisionError(f"consecutive: expected a whole number >= 1, got {value!r}")
+    return int(value)
+
+
 def _model(arm: ArmModel, compensation: Compensation | None) -> ArmModel:
     return arm if compensation is None else compensation.arm
 
@@ -237,9 +244,7 @@ class Thresholds:
         object.__setattr__(self, "slope_nm_s_rad", _joint_vector(self.slope_nm_s_rad, "slope_nm_s_rad", positive=False))
         object.__setattr__(self, "gain_1_s", _joint_vector(self.gain_1_s, "gain_1_s", positive=True))
         object.__setattr__(self, "files", tuple(str(f) for f in self.files))
-        if isinstance(self.consecutive, bool) or not isinstance(self.consecutive, (int, np.integer)) or self.consecutive < 1:
-            raise CollisionError(f"consecutive: expected a whole number >= 1, got {self.consecutive!r}")
-        object.__setattr__(self, "consecutive", int(self.consecutive))
+        object.__setattr__(self, "consecutive", _consecutive(self.consecutive))
         try:
             margin = float(self.margin)
         except (TypeError, ValueError) as err:
@@ -313,8 +318,7 @@ def calibrate_thresholds(
     """
     if not residuals or len(residuals) != len(velocities):
         raise CollisionError("calibration needs at least one recording (residuals and velocities alike)")
-    if isinstance(consecutive, bool) or not isinstance(consecutive, (int, np.integer)) or consecutive < 1:
-        raise CollisionError(f"consecutive: expected a whole number >= 1, got {consecutive!r}")
+    consecutive = _consecutive(consecutive)
     runs = [(_run_minimum(np.abs(r_k), consecutive), _run_minimum(np.abs(qd_k), consecutive)) for r_k, qd_k in zip(residuals, velocities)]
     if not any(len(rho) for rho, _ in runs):
         raise CollisionError(f"calibration needs at least {consecutive} samples in one recording")
@@ -331,7 +335,7 @@ def calibrate_thresholds(
             moving = ~slow
             if moving.any():
                 slope[j] = max(0.0, float(np.max((r[moving, j] - offset[j]) / speed[moving, j])))
-    return Thresholds(np.maximum(offset, floor_nm), slope, _gain(gain_1_s), float(margin), tuple(files), int(consecutive))
+    return Thresholds(np.maximum(offset, floor_nm), slope, _gain(gain_1_s), float(margin), tuple(files), consecutive)
 
 
 def _run_minimum(x: np.ndarray, length: int) -> np.ndarray:
@@ -364,7 +368,6 @@ class CollisionDetector:
         if not 0 < release_fraction <= 1 or hold_s < 0:
             raise CollisionError(f"detector: need 0 < release_fraction <= 1, hold_s >= 0; got {release_fraction}, {hold_s}")
         self.thresholds = thresholds
-        self.consecutive = thresholds.consecutive
         self.release_fraction = float(release_fraction)
         self.hold_s = float(hold_s)
         self.reset()
@@ -383,7 +386,7 @@ class CollisionDetector:
         counts += 1
         counts[~above] = 0
         if not self.state.collision:
-            on = counts >= self.consecutive
+            on = counts >= self.thresholds.consecutive
             if on.any():
                 self._quiet_s = 0.0
                 self.state = DetectorState(True, tuple(int(j) for j in np.flatnonzero(on)))

@@ -144,8 +144,8 @@ class SimTimeListener:
 def listener(ros_client, node_processes, recordings: Recordings) -> SimTimeListener:
     """The node on sim time with the calibrated thresholds, and this process listening to it.
 
-    Ready once it has answered a probe sample on ~/external_torque: every link is then matched and
-    the observer's compiled code loaded (not on a played sample). Then ~/reset forgets the probe."""
+    Ready once it has answered a probe sample on ~/external_torque: every link is then matched.
+    Then ~/reset forgets the probe."""
     listener = SimTimeListener(ros_client)
     node = node_processes.start(["-p", "use_sim_time:=true", "-p", f"thresholds_file:={recordings.thresholds}"])
     probe = ros_client.publisher(JointState, "/robot/joint_states")
