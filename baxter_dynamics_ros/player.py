@@ -15,9 +15,9 @@ import time
 from collections.abc import Sequence
 
 import rclpy
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
@@ -79,7 +79,9 @@ def play(
     """
     if not messages:
         raise PlaybackError("nothing to play: no joint-state message on the chosen topics")
-    rclpy.init()
+    # No rclpy signal handlers: they invalidate the context at Ctrl-C while this loop may still be
+    # publishing (an RCLError instead of a clean stop); Python's KeyboardInterrupt stops it here.
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
     node = BagPlayer(sorted({topic for _, topic, _ in messages}))
     try:
         if wait_for_subscribers_s > 0 and not node.wait_for_subscribers(wait_for_subscribers_s):
@@ -100,7 +102,7 @@ def play(
                 # still in flight would be dropped with the publishers.
                 time.sleep(LINGER_S)
                 return 0
-    except (KeyboardInterrupt, ExternalShutdownException):
+    except KeyboardInterrupt:
         return 0
     finally:
         node.destroy_node()
