@@ -11,6 +11,7 @@ ROS_AUTOMATIC_DISCOVERY_RANGE, RMW_IMPLEMENTATION...): nothing here changes disc
 
 from __future__ import annotations
 
+import signal
 import time
 from collections.abc import Sequence
 
@@ -75,14 +76,16 @@ def play(
 
     loop: start again from the first message after the last (the clock jumps back).
     wait_for_subscribers_s: first wait up to this long for a subscriber on every topic (raises
-    PlaybackError if they do not come). Returns 0 when done or stopped by Ctrl-C.
+    PlaybackError if they do not come). Returns 0 when done or stopped by Ctrl-C (SIGINT) or SIGTERM.
     """
     if not messages:
         raise PlaybackError("nothing to play: no joint-state message on the chosen topics")
     # No rclpy signal handlers: they invalidate the context at Ctrl-C while this loop may still be
-    # publishing (an RCLError instead of a clean stop); Python's KeyboardInterrupt stops it here.
+    # publishing (an RCLError instead of a clean stop). SIGINT and SIGTERM raise KeyboardInterrupt
+    # here instead, set explicitly: a caller may have left SIGINT ignored (a shell's background job).
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
     node = BagPlayer(sorted({topic for _, topic, _ in messages}))
+    previous = {sig: signal.signal(sig, signal.default_int_handler) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         if wait_for_subscribers_s > 0 and not node.wait_for_subscribers(wait_for_subscribers_s):
             raise PlaybackError(
@@ -105,5 +108,7 @@ def play(
     except KeyboardInterrupt:
         return 0
     finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
         node.destroy_node()
         rclpy.try_shutdown()

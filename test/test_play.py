@@ -32,9 +32,12 @@ def _stamp_ns(stamp) -> int:
     return stamp.sec * 1_000_000_000 + stamp.nanosec
 
 
-def _play(bag: Path, *options: str) -> subprocess.Popen:
+def _play(bag: Path, *options: str, sigint_ignored: bool = False) -> subprocess.Popen:
+    """``baxter-dynamics play BAG`` in a subprocess; sigint_ignored: started with SIGINT ignored, as a
+    shell starts a background job."""
     command = [sys.executable, "-m", "baxter_dynamics_ros.cli", "play", str(bag), "--wait-for-subscribers", "30", *options]
-    return subprocess.Popen(command, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    ignore = (lambda: signal.signal(signal.SIGINT, signal.SIG_IGN)) if sigint_ignored else None
+    return subprocess.Popen(command, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=ignore)
 
 
 def _wait_for_publishers(client, topics, timeout_s: float) -> bool:
@@ -102,7 +105,8 @@ def test_play_publishes_joint_states_and_clock_and_loops_until_interrupted(tmp_p
     clock = ros_client.collect(Clock, "/clock")
     first_ns = int(states["stamps_ns"][0])
 
-    play = _play(bag, "--rate", "5", "--loop")
+    # Started with SIGINT ignored, as a background job: the player still stops at SIGINT, cleanly.
+    play = _play(bag, "--rate", "5", "--loop", sigint_ignored=True)
     # Looping: the clock comes back to the first stamp after the last one.
     clock.wait_for(lambda m: [_stamp_ns(c.clock) for c in m].count(first_ns) >= 2, TIMEOUT_S, "a second pass")
     play.send_signal(signal.SIGINT)
