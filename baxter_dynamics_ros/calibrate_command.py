@@ -1,10 +1,11 @@
 """``baxter-dynamics calibrate FILES... --out thresholds.yaml``: collision thresholds from collision-free data.
 
-Runs the momentum observer (:mod:`baxter_dynamics_ros.collision`, gain ``--gain``) over every file,
-with the effects of ``--effects`` compensated, and writes per-joint thresholds a + b|q̇| by the
-calibration rule of that module (``--margin``; ``--consecutive`` samples in a row above before a
-detection; ``--constant`` for b = 0). The recordings must be
-free of contacts: every residual they hold is taken as normal. Never imports rclpy.
+Estimates the effort–state alignment of the files (or takes ``--effort-delay``), runs the momentum
+observer (:mod:`baxter_dynamics_ros.collision`, gain ``--gain``) with it over every file, with the
+effects of ``--effects`` compensated, removes the slow bias (``--bias-time-constant``) and writes
+per-joint thresholds a + b|q̇| by the calibration rule of that module (``--margin``;
+``--consecutive`` samples in a row above before a detection; ``--constant`` for b = 0). The
+recordings must be free of contacts: every residual they hold is taken as normal. Never imports rclpy.
 """
 
 from __future__ import annotations
@@ -20,13 +21,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     from msg_adapters.bag_io import DEFAULT_TOPIC
     from msg_adapters.csv_io import DEFAULT_RATE_HZ
 
-    from .collision import DEFAULT_CONSECUTIVE, DEFAULT_GAIN_1_S
+    from .collision import DEFAULT_BIAS_TIME_CONSTANT_S, DEFAULT_CONSECUTIVE, DEFAULT_GAIN_1_S, DEFAULT_MARGIN
 
     parser.add_argument("files", type=Path, nargs="+", metavar="FILE", help="collision-free recordings (bags or tables)")
     parser.add_argument("--out", "-o", type=Path, required=True, metavar="YAML", help="thresholds file to write")
     parser.add_argument("--effects", type=Path, metavar="YAML", help="effects file from `diagnose` to compensate")
     parser.add_argument("--gain", type=float, default=DEFAULT_GAIN_1_S, metavar="1/S", help=f"observer gain K_O (default {DEFAULT_GAIN_1_S:g})")
-    parser.add_argument("--margin", type=float, default=1.5, help="thresholds = margin x the largest residual (default 1.5)")
+    parser.add_argument("--margin", type=float, default=DEFAULT_MARGIN, help=f"thresholds = margin x the largest residual (default {DEFAULT_MARGIN:g})")
+    parser.add_argument(
+        "--effort-delay", type=float, metavar="SECONDS",
+        help="effort-state alignment: recorded effort(t) = true effort(t - SECONDS), negative when the effort is early (default: estimated from the files)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--bias-time-constant", type=float, default=DEFAULT_BIAS_TIME_CONSTANT_S, metavar="SECONDS",
+        help=f"time constant of the slow bias the detector removes, 0 for none (default {DEFAULT_BIAS_TIME_CONSTANT_S:g})",
+    )  # fmt: skip
     parser.add_argument(
         "--consecutive", type=int, default=DEFAULT_CONSECUTIVE, metavar="N",
         help=f"samples in a row above a threshold before a detection; the thresholds are calibrated for it (default {DEFAULT_CONSECUTIVE})",
@@ -58,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
     from msg_adapters.recording_files import read_recording
 
     from .arm_model import load_arm_model
-    from .collision import calibrate_thresholds, observe, write_thresholds
+    from .collision import calibrate, write_thresholds
     from .compensation import load_compensation
 
     _check_paths(args.files, args.out, args.force)
@@ -68,12 +77,12 @@ def run(args: argparse.Namespace) -> int:
         raise CollisionError("the recordings are of different arms; pass --arm right|left")
     arm = load_arm_model(args.model if args.model is not None else sides.pop())
     compensation = None if args.effects is None else load_compensation(arm, args.effects)
-    residuals = [observe(arm, rec, args.gain, compensation) for rec in recordings]
-    thresholds = calibrate_thresholds(
-        residuals, [rec.qd for rec in recordings], margin=args.margin, speed_dependent=not args.constant,
-        gain_1_s=args.gain, consecutive=args.consecutive, files=[str(p) for p in args.files],
+    thresholds = calibrate(
+        arm, recordings, compensation=compensation, gain_1_s=args.gain, effort_delay_s=args.effort_delay, margin=args.margin,
+        consecutive=args.consecutive, bias_time_constant_s=args.bias_time_constant, speed_dependent=not args.constant,
+        files=[str(p) for p in args.files],
     )  # fmt: skip
     write_thresholds(args.out, thresholds)
     joints = "  ".join(f"{j.split('_', 1)[-1]} {a:.2f}+{b:.2f}|q̇|" for j, a, b in zip(arm.joint_names, thresholds.offset_nm, thresholds.slope_nm_s_rad))
-    print(f"{args.out}: thresholds [N·m] {joints}")
+    print(f"{args.out}: thresholds [N·m] {joints}; effort delay {thresholds.effort_delay_s * 1e3:+.1f} ms")
     return 0

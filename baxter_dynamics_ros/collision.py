@@ -20,6 +20,16 @@ Discretisation, per sample k with its own Δt_k (backward Euler in r, so stable 
 With a :class:`~baxter_dynamics_ros.compensation.Compensation`, the model is its ``arm`` and τ_meas
 has the additive effects' share at q̈ = 0 removed (q̈-dependent shares, armature, are not).
 
+Effort–state alignment: the recorded effort and joint state need not belong to the same instant.
+``effort_delay_s`` = d says recorded effort(t) = true effort(t − d) (d > 0: the effort is late, as
+the diagnosis' ``delay`` effect; d < 0: it is early, or the state late). The observer pairs the
+state at t_k − a with the effort at t_k − b, a = max(d, 0), b = max(−d, 0), each by linear
+interpolation between samples (the first sample held before the start), so it stays causal at the
+price of |d| more detection delay; r_k is stamped t_k. :func:`estimate_effort_delay` finds d from
+collision-free recordings: the d, on a grid of :data:`EFFORT_DELAY_STEP_S` over
+± :data:`MAX_EFFORT_DELAY_S` refined by a parabola through the best three, that minimises the
+squared r over all joints and samples. On the real recordings it is about −15 ms (effort early).
+
 Public scheme (as in public Baxter code): r = τ_meas − τ(q, q̇, 0) against
 :data:`PUBLIC_THRESHOLDS_NM`, a collision on any sample above (:func:`public_residual`,
 :func:`public_detector`).
@@ -35,8 +45,15 @@ it is not crossed: no calibration run of c samples is above margin · threshold 
 c = 1 this is margin · |r_j| below the threshold on every calibration sample. ``consecutive`` is
 stored with the thresholds and used by the detector.
 
-Detector (:class:`CollisionDetector`): on when some joint's |r_j| > threshold_j for ≥ ``consecutive``
-samples in a row; off once every |r_j| < ``release_fraction`` · threshold_j for ``hold_s``. The
+Slow bias: torque-sensor offsets drift between recordings (on the real ones, w2's by 0.09 N·m
+between the random-motion recording and the sinusoids, against thresholds of 0.2 N·m there). With
+``bias_time_constant_s`` = T_b > 0 the detector compares ρ = r − b with the thresholds, b a
+first-order low-pass of r (b_k = b_{k−1} + (Δt_k/T_b)(r_{k−1} − b_{k−1}), b = 0 at the start)
+updated while the detector is off and held while it is on, so a contact never leaks into b. The calibration
+applies the same low-pass to its collision-free r (:func:`calibrate_thresholds` with stamps).
+
+Detector (:class:`CollisionDetector`): on when some joint's |ρ_j| > threshold_j for ≥ ``consecutive``
+samples in a row; off once every |ρ_j| < ``release_fraction`` · threshold_j for ``hold_s``. The
 release fraction defaults to 1 / margin, the level the calibration data stayed under: lower, and
 normal motion alone keeps the detector on after a contact.
 """
@@ -59,30 +76,45 @@ from .errors import CollisionError
 from .recording import JOINT_SUFFIXES, Recording
 
 __all__ = [
+    "DEFAULT_BIAS_TIME_CONSTANT_S",
     "DEFAULT_CONSECUTIVE",
     "DEFAULT_GAIN_1_S",
+    "DEFAULT_MARGIN",
+    "EFFORT_DELAY_STEP_S",
+    "MAX_EFFORT_DELAY_S",
     "MDOT_STEP_S",
     "PUBLIC_THRESHOLDS_NM",
     "CollisionDetector",
     "DetectorState",
     "MomentumObserver",
     "Thresholds",
+    "calibrate",
     "calibrate_thresholds",
-    "observe_arrays",
     "detect",
+    "estimate_effort_delay",
     "momentum_terms",
     "observe",
+    "observe_arrays",
     "public_detector",
     "public_residual",
     "read_thresholds",
+    "without_bias",
     "write_thresholds",
 ]
 
 N = 7
-#: Default observer gain K_O, 1/s (time constant 33 ms).
-DEFAULT_GAIN_1_S = 30.0
+#: Default observer gain K_O, 1/s (time constant 50 ms).
+DEFAULT_GAIN_1_S = 20.0
 #: Samples in a row above a threshold before the detector turns on.
 DEFAULT_CONSECUTIVE = 2
+#: Default calibration margin: thresholds = margin × what the collision-free data reached.
+DEFAULT_MARGIN = 2.5
+#: Default time constant of the detector's slow-bias low-pass, s.
+DEFAULT_BIAS_TIME_CONSTANT_S = 20.0
+#: Largest |effort_delay_s| the alignment estimate considers, s.
+MAX_EFFORT_DELAY_S = 0.05
+#: Grid step of that estimate, s (then refined by a parabola).
+EFFORT_DELAY_STEP_S = 0.0025
 #: Time step of the central difference giving Ṁ along q̇, s.
 MDOT_STEP_S = 1e-6
 #: The fixed thresholds of public Baxter code, s0 … w2, N·m.
@@ -104,6 +136,64 @@ def _consecutive(value: Any) -> int:
     return int(value)
 
 
+def _effort_delay(value: Any) -> float:
+    """``effort_delay_s`` checked: a number of seconds within ±MAX_EFFORT_DELAY_S."""
+    try:
+        d = float(value)
+    except (TypeError, ValueError) as err:
+        raise CollisionError(f"effort_delay_s: expected a number of seconds, got {value!r}") from err
+    if not abs(d) <= MAX_EFFORT_DELAY_S:
+        raise CollisionError(f"effort_delay_s: expected seconds within ±{MAX_EFFORT_DELAY_S:g}, got {value!r}")
+    return d
+
+
+class _Aligner:
+    """The effort–state alignment (module docstring), one sample at a time: returns the state at
+    t − a and the effort at t − b, interpolated over the samples it keeps (the first held before)."""
+
+    def __init__(self, effort_delay_s: float) -> None:
+        self.state_lag_s = max(effort_delay_s, 0.0)
+        self.effort_lag_s = max(-effort_delay_s, 0.0)
+        self.reset()
+
+    def reset(self) -> None:
+        self._t: list[float] = []  # s since the first sample
+        self._x: list[np.ndarray] = []  # (3, 7): q, q̇, effort
+
+    def push(self, dt_s: float, q: np.ndarray, qd: np.ndarray, effort: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """q, q̇ and effort (7,) aligned, for a sample dt_s after the last one."""
+        t_now = self._t[-1] + dt_s if self._t else 0.0
+        self._t.append(t_now)
+        self._x.append(np.stack((q, qd, effort)))
+        oldest_needed = t_now - max(self.state_lag_s, self.effort_lag_s)
+        while len(self._t) > 1 and self._t[1] <= oldest_needed:
+            del self._t[0], self._x[0]
+        state = self._at(t_now - self.state_lag_s)
+        effort_then = self._at(t_now - self.effort_lag_s)
+        return state[0], state[1], effort_then[2]
+
+    def _at(self, t: float) -> np.ndarray:
+        times = self._t
+        i = len(times) - 1
+        while i > 0 and times[i] > t:
+            i -= 1
+        if times[i] >= t or i == len(times) - 1:
+            return self._x[i]
+        w = (t - times[i]) / (times[i + 1] - times[i])
+        return self._x[i] + w * (self._x[i + 1] - self._x[i])
+
+
+def _time_constant(value: Any) -> float:
+    """``bias_time_constant_s`` checked: finite seconds ≥ 0 (0: no bias removed)."""
+    try:
+        t = float(value)
+    except (TypeError, ValueError) as err:
+        raise CollisionError(f"bias_time_constant_s: expected seconds >= 0, got {value!r}") from err
+    if not (t >= 0 and np.isfinite(t)):
+        raise CollisionError(f"bias_time_constant_s: expected seconds >= 0, got {value!r}")
+    return t
+
+
 def _model(arm: ArmModel, compensation: Compensation | None) -> ArmModel:
     return arm if compensation is None else compensation.arm
 
@@ -123,13 +213,21 @@ class MomentumObserver:
     """The generalised-momentum observer (module docstring), one sample at a time.
 
     arm: the nominal model; gain_1_s: K_O, a number or (7,) 1/s; compensation: identified effects
-    (its ``arm`` replaces ``arm``).
+    (its ``arm`` replaces ``arm``); effort_delay_s: the effort–state alignment, s (module docstring).
     """
 
-    def __init__(self, arm: ArmModel, gain_1_s: float | Sequence[float] = DEFAULT_GAIN_1_S, compensation: Compensation | None = None) -> None:
+    def __init__(
+        self,
+        arm: ArmModel,
+        gain_1_s: float | Sequence[float] = DEFAULT_GAIN_1_S,
+        compensation: Compensation | None = None,
+        effort_delay_s: float = 0.0,
+    ) -> None:
         self.arm = arm
         self.gain_1_s = _gain(gain_1_s)
         self.compensation = compensation
+        self.effort_delay_s = _effort_delay(effort_delay_s)
+        self._aligner = _Aligner(self.effort_delay_s) if self.effort_delay_s else None
         self._model = _model(arm, compensation)
         self._sample = np.zeros((3, 1, N))  # q, q̇, τ_meas of one sample as (1, 7) rows: no per-call allocation
         self._terms = np.zeros((2, 1, N))  # p and Cᵀ q̇ − G of that sample
@@ -140,9 +238,13 @@ class MomentumObserver:
         self._p0: np.ndarray | None = None
         self._integral = np.zeros(N)
         self.r = np.zeros(N)
+        if self._aligner is not None:
+            self._aligner.reset()
 
     def update(self, q: np.ndarray, qd: np.ndarray, tau_meas: np.ndarray, dt_s: float) -> np.ndarray:
         """r (7,) N·m for one sample: q (7,) rad, qd (7,) rad/s, tau_meas (7,) N·m, dt_s since the last one."""
+        if self._aligner is not None:
+            q, qd, tau_meas = self._aligner.push(dt_s, q, qd, tau_meas)
         sample, terms, model = self._sample, self._terms, self._model
         sample[0, 0], sample[1, 0], sample[2, 0] = q, qd, tau_meas
         if self.compensation is not None:
@@ -174,9 +276,18 @@ def _observer_step(p, beta, p0, integral, k, dt_s, r):
         integral[j] += (beta[j] - r[j]) * dt_s
 
 
-def observe(arm: ArmModel, recording: Recording, gain_1_s: float | Sequence[float] = DEFAULT_GAIN_1_S, compensation: Compensation | None = None) -> np.ndarray:
+def observe(
+    arm: ArmModel,
+    recording: Recording,
+    gain_1_s: float | Sequence[float] = DEFAULT_GAIN_1_S,
+    compensation: Compensation | None = None,
+    effort_delay_s: float = 0.0,
+) -> np.ndarray:
     """The observer's r (N, 7) over a recording: the numbers of :class:`MomentumObserver`, sample by sample."""
-    return observe_arrays(arm, recording.stamps_ns, recording.q, recording.qd, recording.effort, gain_1_s=gain_1_s, compensation=compensation)
+    return observe_arrays(
+        arm, recording.stamps_ns, recording.q, recording.qd, recording.effort,
+        gain_1_s=gain_1_s, compensation=compensation, effort_delay_s=effort_delay_s,
+    )  # fmt: skip
 
 
 def observe_arrays(
@@ -188,12 +299,60 @@ def observe_arrays(
     *,
     gain_1_s: float | Sequence[float] = DEFAULT_GAIN_1_S,
     compensation: Compensation | None = None,
+    effort_delay_s: float = 0.0,
 ) -> np.ndarray:
     """:func:`observe` on arrays: stamps_ns (N,) ns, q, qd, effort (N, 7); r (N, 7) N·m."""
-    observer = MomentumObserver(arm, gain_1_s, compensation)
-    p, beta = momentum_terms(arm, q, qd, effort, compensation)
+    observer = MomentumObserver(arm, gain_1_s, compensation, effort_delay_s)
     dt = np.diff(np.asarray(stamps_ns, dtype=np.int64), prepend=stamps_ns[0]) * 1e-9
+    if observer._aligner is not None:
+        aligned = [observer._aligner.push(float(dt[k]), q[k], qd[k], effort[k]) for k in range(len(q))]
+        q, qd, effort = (np.array([a[i] for a in aligned]).reshape(-1, N) for i in range(3))
+    p, beta = momentum_terms(arm, q, qd, effort, compensation)
     return np.array([observer._step(p[k], beta[k], float(dt[k])) for k in range(len(q))]).reshape(-1, N)
+
+
+def estimate_effort_delay(
+    arm: ArmModel,
+    recordings: Sequence[Recording],
+    gain_1_s: float | Sequence[float] = DEFAULT_GAIN_1_S,
+    compensation: Compensation | None = None,
+) -> float:
+    """The effort–state alignment effort_delay_s, s, of collision-free recordings (module docstring)."""
+    if not recordings:
+        raise CollisionError("estimating the effort delay needs at least one recording")
+    k = _gain(gain_1_s)
+    prepared = []
+    for rec in recordings:
+        p, w = momentum_terms(arm, rec.q, rec.qd, np.zeros_like(rec.q), compensation)
+        t = (rec.stamps_ns - rec.stamps_ns[0]) * 1e-9
+        dt = np.diff(rec.stamps_ns, prepend=rec.stamps_ns[0]) * 1e-9
+        prepared.append((t, dt, p, w, rec.effort))
+    candidates = np.arange(-MAX_EFFORT_DELAY_S, MAX_EFFORT_DELAY_S + EFFORT_DELAY_STEP_S / 2, EFFORT_DELAY_STEP_S)
+    # The state at t with the effort recorded at t + d (the same pairs as the observer's, shifted in time).
+    cost = np.array([
+        sum(_squared_residual(p, w + np.stack([np.interp(t + d, t, e[:, j]) for j in range(N)], axis=1), dt, k) for t, dt, p, w, e in prepared)
+        for d in candidates
+    ])  # fmt: skip
+    i = int(np.argmin(cost))
+    best = float(candidates[i])
+    if 0 < i < len(cost) - 1:
+        curvature = cost[i - 1] - 2 * cost[i] + cost[i + 1]
+        if curvature > 0:
+            best += EFFORT_DELAY_STEP_S * 0.5 * (cost[i - 1] - cost[i + 1]) / curvature
+    return round(best, 4)
+
+
+@njit(cache=True)
+def _squared_residual(p, beta, dt, k):
+    """Σ r² of the observer run over (N, 7) p and β with steps dt (N,) s, from r = 0."""
+    integral = np.zeros(p.shape[1])
+    r = np.empty(p.shape[1])
+    total = 0.0
+    for i in range(1, p.shape[0]):
+        _observer_step(p[i], beta[i], p[0], integral, k, dt[i], r)
+        for j in range(r.shape[0]):
+            total += r[j] * r[j]
+    return total
 
 
 def public_residual(arm: ArmModel, recording: Recording, compensation: Compensation | None = None) -> np.ndarray:
@@ -228,8 +387,10 @@ class Thresholds:
     """Per-joint thresholds a + b |q̇|: offset_nm (7,) N·m > 0, slope_nm_s_rad (7,) N·m·s/rad ≥ 0.
 
     gain_1_s (7,): the observer gain they were calibrated with (r depends on it); consecutive: the
-    samples in a row above that the detector needs (they were calibrated for it); margin and files:
-    how they were calibrated (for the record).
+    samples in a row above that the detector needs (they were calibrated for it); effort_delay_s:
+    the effort–state alignment the observer ran with, s; bias_time_constant_s: T_b of the slow bias
+    the detector removes, s (0: none); both as in the module docstring; margin and files: how they
+    were calibrated (for the record).
     """
 
     offset_nm: np.ndarray
@@ -238,6 +399,8 @@ class Thresholds:
     margin: float = 1.0
     files: tuple[str, ...] = ()
     consecutive: int = DEFAULT_CONSECUTIVE
+    effort_delay_s: float = 0.0
+    bias_time_constant_s: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "offset_nm", _joint_vector(self.offset_nm, "offset_nm", positive=True))
@@ -245,6 +408,8 @@ class Thresholds:
         object.__setattr__(self, "gain_1_s", _joint_vector(self.gain_1_s, "gain_1_s", positive=True))
         object.__setattr__(self, "files", tuple(str(f) for f in self.files))
         object.__setattr__(self, "consecutive", _consecutive(self.consecutive))
+        object.__setattr__(self, "effort_delay_s", _effort_delay(self.effort_delay_s))
+        object.__setattr__(self, "bias_time_constant_s", _time_constant(self.bias_time_constant_s))
         try:
             margin = float(self.margin)
         except (TypeError, ValueError) as err:
@@ -266,6 +431,8 @@ class Thresholds:
             "slope_nm_s_rad": joints(self.slope_nm_s_rad),
             "gain_1_s": joints(self.gain_1_s),
             "consecutive": self.consecutive,
+            "effort_delay_s": self.effort_delay_s,
+            "bias_time_constant_s": self.bias_time_constant_s,
             "margin": float(self.margin),
             "files": list(self.files),
         }
@@ -274,7 +441,7 @@ class Thresholds:
     def from_dict(cls, raw: Any, where: str = "thresholds") -> Thresholds:
         if not isinstance(raw, dict) or "offset_nm" not in raw:
             raise CollisionError(f"{where}: expected a mapping with offset_nm (and slope_nm_s_rad, gain_1_s), got {raw!r}")
-        unknown = set(raw) - {"offset_nm", "slope_nm_s_rad", "gain_1_s", "consecutive", "margin", "files"}
+        unknown = set(raw) - {"offset_nm", "slope_nm_s_rad", "gain_1_s", "consecutive", "effort_delay_s", "bias_time_constant_s", "margin", "files"}
         if unknown:
             raise CollisionError(f"{where}: unknown keys {sorted(unknown)}")
         try:
@@ -304,21 +471,31 @@ def calibrate_thresholds(
     residuals: Sequence[np.ndarray],
     velocities: Sequence[np.ndarray],
     *,
-    margin: float = 1.5,
+    margin: float = DEFAULT_MARGIN,
     speed_dependent: bool = True,
     slow_rad_s: float = 0.05,
     floor_nm: float = 0.05,
     gain_1_s: float | Sequence[float] = DEFAULT_GAIN_1_S,
     consecutive: int = DEFAULT_CONSECUTIVE,
+    effort_delay_s: float = 0.0,
+    stamps_ns: Sequence[np.ndarray] | None = None,
+    bias_time_constant_s: float = 0.0,
     files: Sequence[str] = (),
 ) -> Thresholds:
     """Thresholds from collision-free data by the module docstring's rule.
 
-    residuals, velocities: per recording, observer r (N, 7) N·m and q̇ (N, 7) rad/s.
+    residuals, velocities: per recording, observer r (N, 7) N·m (of an observer with gain_1_s and
+    effort_delay_s, which the thresholds record) and q̇ (N, 7) rad/s; stamps_ns: per recording (N,)
+    ns, needed when bias_time_constant_s > 0 (the slow bias is then removed from r first).
     """
     if not residuals or len(residuals) != len(velocities):
         raise CollisionError("calibration needs at least one recording (residuals and velocities alike)")
     consecutive = _consecutive(consecutive)
+    bias_time_constant_s = _time_constant(bias_time_constant_s)
+    if bias_time_constant_s > 0:
+        if stamps_ns is None or len(stamps_ns) != len(residuals):
+            raise CollisionError("removing the slow bias needs the stamps of every recording")
+        residuals = [without_bias(r_k, t_k, bias_time_constant_s) for r_k, t_k in zip(residuals, stamps_ns)]
     runs = [(_run_minimum(np.abs(r_k), consecutive), _run_minimum(np.abs(qd_k), consecutive)) for r_k, qd_k in zip(residuals, velocities)]
     if not any(len(rho) for rho, _ in runs):
         raise CollisionError(f"calibration needs at least {consecutive} samples in one recording")
@@ -335,7 +512,48 @@ def calibrate_thresholds(
             moving = ~slow
             if moving.any():
                 slope[j] = max(0.0, float(np.max((r[moving, j] - offset[j]) / speed[moving, j])))
-    return Thresholds(np.maximum(offset, floor_nm), slope, _gain(gain_1_s), float(margin), tuple(files), consecutive)
+    return Thresholds(
+        np.maximum(offset, floor_nm), slope, _gain(gain_1_s), float(margin), tuple(files), consecutive, effort_delay_s, bias_time_constant_s
+    )  # fmt: skip
+
+
+def without_bias(r: np.ndarray, stamps_ns: np.ndarray, time_constant_s: float) -> np.ndarray:
+    """ρ = r − b (N, 7) for r (N, 7) N·m at stamps_ns (N,): b the slow bias (module docstring), the detector off throughout."""
+    if time_constant_s == 0:
+        return np.array(r, dtype=np.float64)
+    dt = np.diff(np.asarray(stamps_ns, dtype=np.int64), prepend=stamps_ns[0]) * 1e-9
+    out = np.empty_like(r)
+    bias = np.zeros(r.shape[1])
+    for k in range(len(r)):
+        if k:
+            bias += min(dt[k] / time_constant_s, 1.0) * (r[k - 1] - bias)
+        out[k] = r[k] - bias
+    return out
+
+
+def calibrate(
+    arm: ArmModel,
+    recordings: Sequence[Recording],
+    *,
+    compensation: Compensation | None = None,
+    gain_1_s: float | Sequence[float] = DEFAULT_GAIN_1_S,
+    effort_delay_s: float | None = None,
+    margin: float = DEFAULT_MARGIN,
+    consecutive: int = DEFAULT_CONSECUTIVE,
+    bias_time_constant_s: float = DEFAULT_BIAS_TIME_CONSTANT_S,
+    speed_dependent: bool = True,
+    files: Sequence[str] = (),
+) -> Thresholds:
+    """Thresholds from collision-free recordings: the effort–state alignment (estimated when
+    effort_delay_s is None), the observer's r with it, then :func:`calibrate_thresholds`."""
+    if effort_delay_s is None:
+        effort_delay_s = estimate_effort_delay(arm, recordings, gain_1_s, compensation)
+    residuals = [observe(arm, rec, gain_1_s, compensation, effort_delay_s) for rec in recordings]
+    return calibrate_thresholds(
+        residuals, [rec.qd for rec in recordings], margin=margin, speed_dependent=speed_dependent,
+        gain_1_s=gain_1_s, consecutive=consecutive, effort_delay_s=effort_delay_s,
+        stamps_ns=[rec.stamps_ns for rec in recordings], bias_time_constant_s=bias_time_constant_s, files=files,
+    )  # fmt: skip
 
 
 def _run_minimum(x: np.ndarray, length: int) -> np.ndarray:
@@ -355,7 +573,8 @@ class DetectorState(NamedTuple):
 
 
 class CollisionDetector:
-    """Hysteresis on |r| against thresholds (module docstring).
+    """Hysteresis on |ρ| = |r − b| against thresholds (module docstring; b = 0 when the thresholds'
+    bias_time_constant_s is 0).
 
     It turns on after ``thresholds.consecutive`` samples in a row above on one joint; release_fraction:
     of the threshold, below which every joint must stay for hold_s before it turns off (default
@@ -373,13 +592,21 @@ class CollisionDetector:
         self.reset()
 
     def reset(self) -> None:
-        """Off, counters cleared."""
+        """Off, counters and bias cleared."""
         self._above = np.zeros(N, dtype=np.int64)  # samples in a row above, per joint
         self._quiet_s = 0.0
+        self._bias = np.zeros(N)
+        self._last_r: np.ndarray | None = None
         self.state = DetectorState(False, ())
 
     def update(self, r: np.ndarray, qd: np.ndarray, dt_s: float) -> DetectorState:
         """The state after one sample: r (7,) N·m, qd (7,) rad/s, dt_s since the last sample."""
+        time_constant = self.thresholds.bias_time_constant_s
+        if time_constant > 0:
+            if self._last_r is not None and not self.state.collision:
+                self._bias += min(dt_s / time_constant, 1.0) * (self._last_r - self._bias)
+            self._last_r = np.array(r, dtype=np.float64)
+            r = r - self._bias
         limit = self.thresholds.at(qd)
         above = np.abs(r) > limit
         counts = self._above

@@ -23,7 +23,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from .collision import CollisionDetector, Thresholds, calibrate_thresholds
+from .collision import DEFAULT_BIAS_TIME_CONSTANT_S, CollisionDetector, Thresholds, calibrate_thresholds
 from .errors import CollisionError
 from .residuals import Health, HealthReport
 
@@ -40,8 +40,8 @@ SETTLE_TIME_CONSTANTS = 5.0
 class CollisionMonitor:
     """Collision detection and online calibration on the observer's r (module docstring).
 
-    joint_names: the arm's 7 joints; window_s: calibration window, s; gain_1_s: the observer's gain
-    (recorded in calibrated thresholds); thresholds: to detect with from the start (None: not until
+    joint_names: the arm's 7 joints; window_s: calibration window, s; gain_1_s and effort_delay_s: the
+    observer's gain and effort–state alignment (recorded in calibrated thresholds); thresholds: to detect with from the start (None: not until
     calibrated); source: where they come from, for diagnostics.
     """
 
@@ -53,10 +53,12 @@ class CollisionMonitor:
         thresholds: Thresholds | None = None,
         source: str = "",
         observe_window: Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None,
+        effort_delay_s: float = 0.0,
     ) -> None:
         self.joint_names = tuple(joint_names)
         self.window_s = float(window_s)
         self.gain_1_s = float(gain_1_s)
+        self.effort_delay_s = float(effort_delay_s)
         capacity = int(math.ceil(self.window_s * MAX_RATE_HZ)) + 1
         self._stamps_ns = np.zeros(capacity, dtype=np.int64)
         self._r = np.zeros((capacity, len(self.joint_names)))
@@ -166,15 +168,19 @@ class CollisionMonitor:
             )
         window = np.flatnonzero(keep)
         window = window[np.argsort(stamps[window], kind="stable")]
+        t = stamps[window]
         r = self._r[window]
         qd = self._qd[window]
         if not np.all(np.isfinite(r)):
             if self._observe_window is None:
                 raise CollisionError("the observer did not run on the buffered samples and there is no way to compute it")
-            r = self._observe_window(stamps[window], self._q[window], qd, self._effort[window])
-            settled = stamps[window] >= stamps[window[0]] + int(SETTLE_TIME_CONSTANTS / self.gain_1_s * 1e9)
-            r, qd = r[settled], qd[settled]
-        thresholds = calibrate_thresholds([r], [qd], gain_1_s=self.gain_1_s)
+            r = self._observe_window(t, self._q[window], qd, self._effort[window])
+            settled = t >= t[0] + int(SETTLE_TIME_CONSTANTS / self.gain_1_s * 1e9)
+            t, r, qd = t[settled], r[settled], qd[settled]
+        thresholds = calibrate_thresholds(
+            [r], [qd], gain_1_s=self.gain_1_s, effort_delay_s=self.effort_delay_s,
+            stamps_ns=[t], bias_time_constant_s=DEFAULT_BIAS_TIME_CONSTANT_S,
+        )  # fmt: skip
         return thresholds, f"~/calibrate over {span_s:.2f} s ({n} samples)"
 
     def report(self, health: HealthReport) -> HealthReport:

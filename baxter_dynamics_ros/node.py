@@ -183,16 +183,21 @@ class DynamicsNode(Node):
                 f"compensating {', '.join(e.name for e in compensation.effects) or 'nothing'} from {settings.effects_file}"
                 + (f"; not compensated live: {', '.join(compensation.ignored)}" if compensation.ignored else "")
             )
-        self._pipeline = ResidualPipeline(arm, settings.estimator, settings.cutoff_hz, compensation, settings.observer_gain_1_s)
         thresholds = read_thresholds(settings.thresholds_file) if settings.thresholds_file else None
         if thresholds is not None and not (thresholds.gain_1_s == settings.observer_gain_1_s).all():
             self.get_logger().warn(
                 f"{settings.thresholds_file} was calibrated with observer gains {thresholds.gain_1_s.tolist()} 1/s, "
                 f"the node runs {settings.observer_gain_1_s} 1/s: recalibrate (~/calibrate) or set observer_gain_1_s"
             )
+        # The observer aligns effort and state as the thresholds were calibrated (none without them).
+        effort_delay_s = 0.0 if thresholds is None else thresholds.effort_delay_s
+        self._pipeline = ResidualPipeline(arm, settings.estimator, settings.cutoff_hz, compensation, settings.observer_gain_1_s, effort_delay_s)
         self._monitor = CollisionMonitor(
             arm.joint_names, settings.calibration_window_s, settings.observer_gain_1_s, thresholds, settings.thresholds_file,
-            observe_window=functools.partial(observe_arrays, arm, gain_1_s=settings.observer_gain_1_s, compensation=compensation),
+            observe_window=functools.partial(
+                observe_arrays, arm, gain_1_s=settings.observer_gain_1_s, compensation=compensation, effort_delay_s=effort_delay_s
+            ),
+            effort_delay_s=effort_delay_s,
         )
         self._skip_loggers = {reason: self.get_logger().get_child(reason.value) for reason in SkipReason}
 

@@ -52,7 +52,7 @@ class NodeSettings:
     )
     diagnostics_period_s: float = _setting(1.0, "Period of the /diagnostics report and of its window (s).")
     observer_gain_1_s: float = _setting(
-        30.0, "Gain K_O of the momentum observer giving ~/external_torque, 1/s (time constant 1/K_O)."
+        20.0, "Gain K_O of the momentum observer giving ~/external_torque, 1/s (time constant 1/K_O)."
     )
     thresholds_file: str = _setting(
         "",

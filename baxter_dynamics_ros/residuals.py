@@ -23,8 +23,8 @@ into G(q), τ and the residual, or into a :class:`SkipReason` (the message reade
    values) is reset and the sample skipped (``non_finite_model``);
 6. residual = measured effort − τ, or None when the message has no effort;
 7. external torque r = the generalised-momentum observer's output
-   (:class:`~baxter_dynamics_ros.collision.MomentumObserver`, gain ``observer_gain_1_s``, the same
-   compensated model) on the samples with effort, or None without effort. The observer restarts
+   (:class:`~baxter_dynamics_ros.collision.MomentumObserver`, gain ``observer_gain_1_s``, effort–state
+   alignment ``observer_effort_delay_s``, the same compensated model) on the samples with effort, or None without effort. The observer restarts
    (r = 0) with the estimator, and after a sample without effort.
 
 :class:`HealthMonitor` counts what happened to every sample and reports once per window (the
@@ -169,14 +169,15 @@ class ResidualPipeline:
         cutoff_hz: float = 10.0,
         compensation: Compensation | None = None,
         observer_gain_1_s: float = DEFAULT_GAIN_1_S,
+        observer_effort_delay_s: float = 0.0,
     ) -> None:
         self.compensation = compensation
         self.arm = arm if compensation is None else compensation.arm
         self._estimator = make_estimator(estimator, cutoff_hz)
         try:
-            self._observer = MomentumObserver(arm, observer_gain_1_s, compensation)
+            self._observer = MomentumObserver(arm, observer_gain_1_s, compensation, observer_effort_delay_s)
         except CollisionError as err:
-            raise SettingsError(f"observer_gain_1_s: {err}") from err
+            raise SettingsError(f"observer: {err}") from err
         self._observing = False  # whether the observer ran on the last sample
         self._last_stamp_ns: int | None = None
         self._last_q: np.ndarray | None = None

@@ -17,8 +17,9 @@ Data (right arm in simulation, 100 Hz, Baxter-like quantisation, effort noise 0.
   - whole files: every train-3/hold-out-1 rotation, as above on whole recordings: the held-out
     file's motion may be of a kind the calibration never saw (the only random-motion recording).
 
-Our detector: thresholds calibrated by ``calibrate_thresholds`` (margin 1.5, speed-dependent, for
-``--consecutive`` samples in a row) on the observer's r (K_O = ``--gain``). The public scheme:
+Our detector: thresholds calibrated by ``calibrate`` (``--margin``, speed-dependent, for
+``--consecutive`` samples in a row, the slow bias removed) on the observer's r (K_O = ``--gain``, the
+effort–state alignment estimated on the calibration data). The public scheme:
 effort − τ(q, q̇, 0) of the same compensated model against {10, 10, 5, 4.5, 2, 2, 1} N·m, on at the
 first sample above.
 
@@ -39,11 +40,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.arm_model import ArmModel
-from baxter_dynamics_ros.collision import DEFAULT_CONSECUTIVE, DEFAULT_GAIN_1_S, Thresholds
-from baxter_dynamics_ros.collision import CollisionDetector, calibrate_thresholds, detect, observe, public_detector, public_residual
+from baxter_dynamics_ros.collision import DEFAULT_CONSECUTIVE, DEFAULT_GAIN_1_S, DEFAULT_MARGIN, Thresholds
+from baxter_dynamics_ros.collision import CollisionDetector, calibrate, detect, observe, public_detector, public_residual, without_bias
 from baxter_dynamics_ros.compensation import Compensation
 from baxter_dynamics_ros.effects import effects_from_dict
 from baxter_dynamics_ros.recording import Recording
@@ -138,8 +140,15 @@ def _windows(result) -> list[tuple[float, float, bool]]:
     return [(c["start_s"], c["end_s"], bool(np.any(np.array(c["peak_joint_torque_nm"]) >= GOAL_NM))) for c in result.collision_truth()]
 
 
-def _run_both(arm: ArmModel, compensation: Compensation, thresholds, gain: float, rec: Recording, windows, ours: Tally, public: Tally) -> None:
-    r = observe(arm, rec, gain, compensation)
+def _describe(thresholds: Thresholds) -> str:
+    return (
+        f"thresholds {np.round(thresholds.offset_nm, 2).tolist()} + {np.round(thresholds.slope_nm_s_rad, 2).tolist()}|q̇| N·m "
+        f"(K_O {thresholds.gain_1_s[0]:g} 1/s, effort delay {thresholds.effort_delay_s * 1e3:+.1f} ms)"
+    )
+
+
+def _run_both(arm: ArmModel, compensation: Compensation, thresholds: Thresholds, rec: Recording, windows, ours: Tally, public: Tally) -> None:
+    r = observe(arm, rec, thresholds.gain_1_s, compensation, thresholds.effort_delay_s)
     ours.add(detect(CollisionDetector(thresholds), r, rec.qd, rec.stamps_ns), rec.stamps_s, windows)
     rp = public_residual(arm, rec, compensation)
     public.add(detect(public_detector(), rp, rec.qd, rec.stamps_ns), rec.stamps_s, windows)
@@ -167,8 +176,8 @@ class Options:
     consecutive: int
     contact_seeds: int
 
-    def calibrate(self, residuals: list[np.ndarray], velocities: list[np.ndarray]) -> Thresholds:
-        return calibrate_thresholds(residuals, velocities, margin=self.margin, gain_1_s=self.gain, consecutive=self.consecutive)
+    def calibrate(self, arm: ArmModel, recordings: list[Recording], compensation: Compensation) -> Thresholds:
+        return calibrate(arm, recordings, compensation=compensation, gain_1_s=self.gain, margin=self.margin, consecutive=self.consecutive)
 
 
 def _diagnosed(arm: ArmModel, train: list[tuple[str, Recording]], test: list[tuple[str, Recording]]) -> Compensation:
@@ -188,14 +197,13 @@ def _real_halves(arm: ArmModel, recordings: list[tuple[str, Recording]], options
     train = [(f"{name} (1st half)", _half(rec, False)) for name, rec in recordings]
     test = [(f"{name} (2nd half)", _half(rec, True)) for name, rec in recordings]
     compensation = _diagnosed(arm, train, test)
-    thresholds = options.calibrate([observe(arm, rec, options.gain, compensation) for _, rec in train], [rec.qd for _, rec in train])
-    print(f"  halves: effects {', '.join(e.name for e in compensation.effects) or 'none'}; thresholds "
-          f"{np.round(thresholds.offset_nm, 2).tolist()} + {np.round(thresholds.slope_nm_s_rad, 2).tolist()}|q̇| N·m")  # fmt: skip
+    thresholds = options.calibrate(arm, [rec for _, rec in train], compensation)
+    print(f"  halves: effects {', '.join(e.name for e in compensation.effects) or 'none'}; {_describe(thresholds)}")
     ours, public, hit_ours, hit_public = Tally(), Tally(), Tally(), Tally()
     for k, (_, rec) in enumerate(test):
-        _run_both(arm, compensation, thresholds, options.gain, rec, [], ours, public)
+        _run_both(arm, compensation, thresholds, rec, [], ours, public)
         for seed in range(options.contact_seeds):
-            _run_both(arm, compensation, thresholds, options.gain, *_with_contacts(arm, rec, 10 * k + seed), hit_ours, hit_public)
+            _run_both(arm, compensation, thresholds, *_with_contacts(arm, rec, 10 * k + seed), hit_ours, hit_public)
     return ours, public, hit_ours, hit_public
 
 
@@ -204,14 +212,18 @@ def _real_files(arm: ArmModel, recordings: list[tuple[str, Recording]], options:
     for k, (name, held_out) in enumerate(recordings):
         train = [r for i, r in enumerate(recordings) if i != k]
         compensation = _diagnosed(arm, train, [(name, held_out)])
-        thresholds = options.calibrate([observe(arm, rec, options.gain, compensation) for _, rec in train], [rec.qd for _, rec in train])
-        # The margin this held-out file would have needed on its own (consecutive = 1): max |r| / (threshold at margin 1).
-        needed = np.max(np.abs(observe(arm, held_out, options.gain, compensation)) * options.margin / thresholds.at(held_out.qd), axis=0)
+        thresholds = options.calibrate(arm, [rec for _, rec in train], compensation)
+        # The margin this held-out file would have needed: the largest ρ / (threshold at margin 1)
+        # that lasts the detector's samples in a row (ρ = r without its slow bias, the detector off).
+        r = observe(arm, held_out, options.gain, compensation, thresholds.effort_delay_s)
+        rho = without_bias(r, held_out.stamps_ns, thresholds.bias_time_constant_s)
+        ratio = sliding_window_view(np.abs(rho) * options.margin / thresholds.at(held_out.qd), thresholds.consecutive, axis=0).min(axis=-1)
+        needed = ratio.max(axis=0)
         before = ours.false_positives, public.false_positives
-        _run_both(arm, compensation, thresholds, options.gain, held_out, [], ours, public)
+        _run_both(arm, compensation, thresholds, held_out, [], ours, public)
         print(f"  whole files, held out {name}: effects {', '.join(e.name for e in compensation.effects) or 'none'}; "
-              f"FP ours {ours.false_positives - before[0]}, public {public.false_positives - before[1]}; "
-              f"margin needed per joint {np.round(needed, 2).tolist()}")  # fmt: skip
+              f"effort delay {thresholds.effort_delay_s * 1e3:+.1f} ms; FP ours {ours.false_positives - before[0]}, "
+              f"public {public.false_positives - before[1]}; margin needed per joint {np.round(needed, 2).tolist()}")  # fmt: skip
     return ours, public
 
 
@@ -219,26 +231,27 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m bench.bench_collision")
     parser.add_argument("--collision-minutes", type=float, default=6.0, help="simulated minutes with contacts (default 6)")
     parser.add_argument("--gain", type=float, default=DEFAULT_GAIN_1_S, help=f"observer gain K_O, 1/s (default {DEFAULT_GAIN_1_S:g})")
-    parser.add_argument("--margin", type=float, default=1.5, help="calibration margin (default 1.5)")
+    parser.add_argument("--margin", type=float, default=DEFAULT_MARGIN, help=f"calibration margin (default {DEFAULT_MARGIN:g})")
     parser.add_argument("--consecutive", type=int, default=DEFAULT_CONSECUTIVE, help=f"samples in a row above (default {DEFAULT_CONSECUTIVE})")
+    parser.add_argument("--sim-seed", type=int, default=100, help="seed of the first simulated recording with contacts (default 100)")
     parser.add_argument("--contact-seeds", type=int, default=4, help="draws of contacts added to each real held-out half (default 4)")
     args = parser.parse_args([] if argv is None else argv)
     options = Options(args.gain, args.margin, args.consecutive, args.contact_seeds)
     arm = load_arm_model("right")
     compensation = Compensation(arm, effects_from_dict(EFFECTS))
     calibration = [_simulated(t, s, 1.0, False) for t, s in (("random", 1), ("paper_xyz", 2), ("paper_y", 3))]
-    thresholds = options.calibrate([observe(arm, r.recording(), args.gain, compensation) for r in calibration], [r.qd for r in calibration])
-    print(f"simulated: thresholds {np.round(thresholds.offset_nm, 2).tolist()} + {np.round(thresholds.slope_nm_s_rad, 2).tolist()}|q̇| N·m (K_O {args.gain:g} 1/s)")
+    thresholds = options.calibrate(arm, [r.recording() for r in calibration], compensation)
+    print(f"simulated: {_describe(thresholds)}")
     free_ours, free_public = Tally(), Tally()
     for trajectory, seed in (("random", 11), ("paper_xyz", 12), ("paper_z", 13)):
         rec = _simulated(trajectory, seed, 1.0, False).recording()
-        _run_both(arm, compensation, thresholds, args.gain, rec, [], free_ours, free_public)
+        _run_both(arm, compensation, thresholds, rec, [], free_ours, free_public)
     hit_ours, hit_public = Tally(), Tally()
     minutes = args.collision_minutes
     trajectories = ("random", "paper_xyz", "paper_y", "paper_z")
     for k in range(int(np.ceil(minutes))):
-        result = _simulated(trajectories[k % 4], 100 + k, min(1.0, minutes - k), True)
-        _run_both(arm, compensation, thresholds, args.gain, result.recording(), _windows(result), hit_ours, hit_public)
+        result = _simulated(trajectories[k % 4], args.sim_seed + k, min(1.0, minutes - k), True)
+        _run_both(arm, compensation, thresholds, result.recording(), _windows(result), hit_ours, hit_public)
     rows = [
         ("simulated, collision-free held-out", free_ours, free_public),
         ("simulated, with contacts", hit_ours, hit_public),

@@ -14,17 +14,23 @@ from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.arm_model import ArmModel
 from baxter_dynamics_ros.cli import main
 from baxter_dynamics_ros.collision import (
+    DEFAULT_BIAS_TIME_CONSTANT_S,
+    DEFAULT_MARGIN,
     PUBLIC_THRESHOLDS_NM,
     CollisionDetector,
     MomentumObserver,
     Thresholds,
+    calibrate,
     calibrate_thresholds,
     detect,
+    estimate_effort_delay,
     momentum_terms,
     observe,
+    observe_arrays,
     public_detector,
     public_residual,
     read_thresholds,
+    without_bias,
     write_thresholds,
 )
 from baxter_dynamics_ros.compensation import Compensation
@@ -83,6 +89,70 @@ def test_per_sample_observer_gives_the_batch_numbers(arm: ArmModel, pushed) -> N
     np.testing.assert_array_equal(one_by_one, batch)
     observer.reset()
     np.testing.assert_array_equal(observer.update(rec.q[5], rec.qd[5], rec.effort[5], 0.01), np.zeros(7))
+
+
+@pytest.mark.parametrize("effort_delay_s", [-0.013, 0.004, 0.02])
+def test_aligned_observer_one_by_one_gives_the_batch_numbers(arm: ArmModel, pushed, effort_delay_s: float) -> None:
+    rec = pushed.recording()
+    keep = np.r_[0:150, 151:len(rec)]  # one sample lost: an uneven step to interpolate over
+    stamps, q, qd, effort = rec.stamps_ns[keep], rec.q[keep], rec.qd[keep], rec.effort[keep]
+    batch = observe_arrays(arm, stamps, q, qd, effort, gain_1_s=GAIN, effort_delay_s=effort_delay_s)
+    observer = MomentumObserver(arm, GAIN, effort_delay_s=effort_delay_s)
+    dt = np.diff(stamps, prepend=stamps[0]) * 1e-9
+    one_by_one = np.array([observer.update(q[k], qd[k], effort[k], dt[k]) for k in range(len(q))])
+    np.testing.assert_array_equal(one_by_one, batch)
+    # The pairing: the state at t − max(d, 0) with the effort at t − max(−d, 0), linearly interpolated.
+    t = (stamps - stamps[0]) * 1e-9
+    state_t, effort_t = t - max(effort_delay_s, 0.0), t - max(-effort_delay_s, 0.0)
+    interp = lambda x, at: np.stack([np.interp(at, t, x[:, j]) for j in range(7)], axis=1)  # noqa: E731
+    expected = observe_arrays(arm, stamps, interp(q, state_t), interp(qd, state_t), interp(effort, effort_t), gain_1_s=GAIN)
+    np.testing.assert_allclose(batch, expected, atol=1e-9)
+    with pytest.raises(CollisionError, match="effort_delay_s"):
+        MomentumObserver(arm, GAIN, effort_delay_s=0.2)
+
+
+def test_effort_delay_is_estimated_from_collision_free_motion(arm: ArmModel) -> None:
+    """A recording whose effort is 15 ms late: the estimate is 15 ms later than that of the same motion
+    without it (which makes up for the observer's step alone), and the aligned r is much smaller."""
+    late = effects_from_dict({"delay": {"delay_s": 0.015}})
+    plain, delayed = (simulate(SimulationSpec("random", 8.0, 100.0, seed=4, effects=e)).recording() for e in ((), late))
+    d_plain = estimate_effort_delay(arm, [plain], GAIN)
+    d_late = estimate_effort_delay(arm, [delayed], GAIN)
+    assert -0.0075 < d_plain < -0.0025
+    assert d_late - d_plain == pytest.approx(0.015, abs=0.002)
+    rms = lambda r: float(np.sqrt(np.mean(r**2)))  # noqa: E731
+    assert rms(observe(arm, delayed, GAIN, None, d_late)) < 0.5 * rms(observe(arm, delayed, GAIN))
+    thresholds = calibrate(arm, [delayed], gain_1_s=GAIN)
+    assert thresholds.effort_delay_s == d_late and thresholds.bias_time_constant_s == DEFAULT_BIAS_TIME_CONSTANT_S
+    with pytest.raises(CollisionError, match="at least one recording"):
+        estimate_effort_delay(arm, [], GAIN)
+
+
+def test_detector_removes_a_slow_bias_but_not_a_contact() -> None:
+    n = 6000  # 60 s at 100 Hz
+    stamps_ns = np.arange(n) * 10_000_000
+    t = stamps_ns * 1e-9
+    r, qd = np.zeros((n, 7)), np.zeros((n, 7))
+    r[:, 6] = 0.3 * t / 60.0  # a sensor offset drifting by 0.3 N·m in a minute, against a 0.2 N·m threshold
+    tracked = Thresholds(np.full(7, 0.2), consecutive=2, bias_time_constant_s=DEFAULT_BIAS_TIME_CONSTANT_S)
+    fixed = Thresholds(np.full(7, 0.2), consecutive=2)
+    assert detect(CollisionDetector(fixed), r, qd, stamps_ns).any()
+    assert not detect(CollisionDetector(tracked), r, qd, stamps_ns).any()
+    pushed = r.copy()
+    push = (t >= 40.0) & (t < 50.0)
+    pushed[push, 6] -= 1.0  # a 10 s push of 1 N·m: on throughout (the bias is held), off after it
+    on = detect(CollisionDetector(tracked), pushed, qd, stamps_ns)
+    assert on[push][2:].all() and not on[t >= 50.5].any() and not on[t < 40.0].any()
+    # The calibration removes the same bias: the drift sets the threshold at its rate × T_b (0.1 N·m), not 0.3.
+    calibrated = calibrate_thresholds(
+        [r], [qd], stamps_ns=[stamps_ns], bias_time_constant_s=DEFAULT_BIAS_TIME_CONSTANT_S, margin=1.0, consecutive=1
+    )  # fmt: skip
+    assert calibrated.offset_nm[6] == np.abs(without_bias(r, stamps_ns, DEFAULT_BIAS_TIME_CONSTANT_S)[:, 6]).max()
+    assert 0.09 < calibrated.offset_nm[6] < 0.1
+    with pytest.raises(CollisionError, match="stamps"):
+        calibrate_thresholds([r], [qd], bias_time_constant_s=20.0)
+    with pytest.raises(CollisionError, match="bias_time_constant_s"):
+        Thresholds(np.full(7, 0.2), bias_time_constant_s=-1.0)
 
 
 def test_observer_recovers_the_external_torque(arm: ArmModel, pushed) -> None:
@@ -162,13 +232,16 @@ def test_detector_hysteresis() -> None:
 
 
 def test_thresholds_yaml_round_trip_and_errors(tmp_path: Path) -> None:
-    thresholds = Thresholds(np.arange(1.0, 8.0), np.linspace(0, 1, 7), np.full(7, 25.0), 1.5, ("a.bag",), consecutive=3)
+    thresholds = Thresholds(
+        np.arange(1.0, 8.0), np.linspace(0, 1, 7), np.full(7, 25.0), 1.5, ("a.bag",), consecutive=3, effort_delay_s=-0.0125, bias_time_constant_s=20.0
+    )  # fmt: skip
     path = tmp_path / "thresholds.yaml"
     write_thresholds(path, thresholds)
     back = read_thresholds(path)
     for name in ("offset_nm", "slope_nm_s_rad", "gain_1_s"):
         np.testing.assert_array_equal(getattr(back, name), getattr(thresholds, name))
     assert back.margin == 1.5 and back.files == ("a.bag",) and back.consecutive == 3
+    assert back.effort_delay_s == -0.0125 and back.bias_time_constant_s == 20.0
     assert "s0: 1.0" in path.read_text()
     path.write_text("offset_nm: {s0: 1, s1: 1}\n")
     with pytest.raises(CollisionError, match="thresholds.yaml: offset_nm: expected the joints"):
@@ -254,8 +327,20 @@ def test_calibrate_cli(tmp_path: Path, pushed, capsys: pytest.CaptureFixture[str
     assert main(["calibrate", str(bag), "--out", str(out), "--margin", "2", "--consecutive", "1"]) == 0
     thresholds = read_thresholds(out)
     assert thresholds.files == (str(bag),) and thresholds.margin == 2.0 and thresholds.consecutive == 1
-    r = observe(load_arm_model("right"), read_recording(bag), GAIN)
-    assert np.all(thresholds.at(rec.qd) >= 2 * np.abs(r) - 1e-9)
+    assert thresholds.bias_time_constant_s == DEFAULT_BIAS_TIME_CONSTANT_S
+    # Simultaneous effort and state: the alignment only makes up for the observer's step (β_k Δt
+    # integrates over the step ending at t_k), about half a step early.
+    assert -0.0075 < thresholds.effort_delay_s < -0.0025
+    recorded = read_recording(bag)
+    r = observe(load_arm_model("right"), recorded, thresholds.gain_1_s, None, thresholds.effort_delay_s)
+    rho = without_bias(r, recorded.stamps_ns, thresholds.bias_time_constant_s)
+    assert np.all(thresholds.at(rec.qd) >= 2 * np.abs(rho) - 1e-9)
+    plain = tmp_path / "plain.yaml"
+    assert main(["calibrate", str(bag), "--out", str(plain), "--effort-delay", "0", "--bias-time-constant", "0", "--gain", "30"]) == 0
+    expected = calibrate_thresholds([observe(load_arm_model("right"), recorded, GAIN)], [recorded.qd], gain_1_s=GAIN)
+    np.testing.assert_allclose(read_thresholds(plain).offset_nm, expected.offset_nm, rtol=1e-12)
+    assert main(["calibrate", str(bag), "--out", str(tmp_path / "bad.yaml"), "--effort-delay", "0.5"]) == 1
+    assert "effort_delay_s" in capsys.readouterr().err
     before = out.read_text()
     assert main(["calibrate", str(bag), "--out", str(out)]) == 1
     assert "exists already" in capsys.readouterr().err and out.read_text() == before
@@ -285,13 +370,15 @@ def test_monitor_calibrates_on_the_last_window_only_and_reports_collisions() -> 
     for k in range(n):
         assert monitor.update(k * step_ns, r[k], np.zeros(7)) is None  # no thresholds: nothing detected
     thresholds, source = monitor.calibrate()
-    np.testing.assert_allclose(thresholds.offset_nm[3], 1.5 * 0.4)  # margin 1.5 of the window's max
+    # The default margin times the window's max (less the slow bias, which hardly moves in 5 ms).
+    np.testing.assert_allclose(thresholds.offset_nm[3], DEFAULT_MARGIN * 0.4, rtol=1e-4)
+    assert thresholds.bias_time_constant_s == DEFAULT_BIAS_TIME_CONSTANT_S
     assert "~/calibrate" in source
     assert not monitor.set_thresholds(thresholds, source)
     t = n * step_ns
     assert monitor.update(t, np.full(7, 0.01), np.zeros(7)) is None  # below every threshold
-    assert monitor.update(t + step_ns, np.array([0, 0, 0, -1.0, 0, 0, 0]), np.zeros(7)) is None  # 1 of 2 samples
-    assert monitor.update(t + 2 * step_ns, np.array([0, 0, 0, -1.0, 0, 0, 0]), np.zeros(7)) is True
+    assert monitor.update(t + step_ns, np.array([0, 0, 0, -1.5, 0, 0, 0]), np.zeros(7)) is None  # 1 of 2 samples
+    assert monitor.update(t + 2 * step_ns, np.array([0, 0, 0, -1.5, 0, 0, 0]), np.zeros(7)) is True
     with pytest.raises(CollisionError, match="collision is detected now"):
         monitor.calibrate()
     report = monitor.report(ok)
@@ -329,6 +416,8 @@ def test_monitor_computes_r_at_calibration_when_the_observer_did_not_run() -> No
     window = stamps >= stamps[-1] - 2_000_000_000
     r = observe_arrays(arm, stamps[window], q[window], qd[window], effort[window], gain_1_s=30.0)
     settled = stamps[window] >= stamps[window][0] + int(SETTLE_TIME_CONSTANTS / 30.0 * 1e9)
-    expected = calibrate_thresholds([r[settled]], [qd[window][settled]], gain_1_s=30.0)
+    expected = calibrate_thresholds(
+        [r[settled]], [qd[window][settled]], gain_1_s=30.0, stamps_ns=[stamps[window][settled]], bias_time_constant_s=DEFAULT_BIAS_TIME_CONSTANT_S
+    )  # fmt: skip
     np.testing.assert_allclose(thresholds.offset_nm, expected.offset_nm)
     np.testing.assert_allclose(thresholds.slope_nm_s_rad, expected.slope_nm_s_rad)

@@ -29,7 +29,10 @@ import numpy as np
 import pytest
 import yaml
 
+from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.cli import main
+from baxter_dynamics_ros.collision import observe, read_thresholds
+from msg_adapters.recording_files import read_recording
 
 rclpy = pytest.importorskip("rclpy")
 from rosgraph_msgs.msg import Clock  # noqa: E402
@@ -211,3 +214,13 @@ def test_no_collision_on_a_collision_free_recording(listener: SimTimeListener, r
     assert_every_sample_observed(played, truth_of(recordings.free))
     assert played.collisions, "no ~/collision message while playing (the node repeats its state every second)"
     assert not any(on for _, on in played.collisions), f"false positives: {played.changes()}"
+    # The node's observer runs with the effort–state alignment calibrate estimated (half a step
+    # early on simulated data) and gives the core's numbers over the recording.
+    thresholds = read_thresholds(recordings.thresholds)
+    assert thresholds.effort_delay_s < 0
+    rec = read_recording(recordings.free)
+    expected = observe(load_arm_model("right"), rec, thresholds.gain_1_s, None, thresholds.effort_delay_s)
+    got = {_ns(m.header.stamp): np.array(m.effort) for m in played.external_torque}
+    settled = rec.stamps_ns >= rec.stamps_ns[0] + 500_000_000  # the observer (re)starts with the recording
+    for k in np.flatnonzero(settled):
+        np.testing.assert_allclose(got[int(rec.stamps_ns[k])], expected[k], atol=1e-6)

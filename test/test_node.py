@@ -25,7 +25,7 @@ from recorded_bags import START_NS, joint_states
 
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.acceleration import FirstDifference, LowPassDifferentiator
-from baxter_dynamics_ros.collision import MomentumObserver
+from baxter_dynamics_ros.collision import DEFAULT_GAIN_1_S, MomentumObserver
 from baxter_dynamics_ros.simulator import BAXTER_JOINT_NAMES
 
 rclpy = pytest.importorskip("rclpy")
@@ -104,7 +104,7 @@ def expected_torques(
     return {"gravity": arm.gravity(q), "inverse_dynamics": tau, "residual": effort - tau}
 
 
-def expected_external_torque(arm, stamps_ns, q, qd, effort, gain_1_s: float = 30.0, compensation=None) -> np.ndarray:
+def expected_external_torque(arm, stamps_ns, q, qd, effort, gain_1_s: float = DEFAULT_GAIN_1_S, compensation=None) -> np.ndarray:
     """The momentum observer's r (N, 7) fed the samples the node accepted, in order, from a reset."""
     observer = MomentumObserver(arm, gain_1_s, compensation)
     dt_s = np.diff(np.asarray(stamps_ns, dtype=np.int64), prepend=int(stamps_ns[0])) * 1e-9
