@@ -28,7 +28,9 @@ interpolation between samples (the first sample held before the start), so it st
 price of |d| more detection delay; r_k is stamped t_k. :func:`estimate_effort_delay` finds d from
 collision-free recordings: the d, on a grid of :data:`EFFORT_DELAY_STEP_S` over
 ± :data:`MAX_EFFORT_DELAY_S` refined by a parabola through the best three, that minimises the
-squared r over all joints and samples. On the real recordings it is about −15 ms (effort early).
+squared r over all joints and samples. It also makes up for the discrete step (β_k Δt_k integrates
+over the step ending at t_k): simulated recordings, effort and state simultaneous, give −4.9 ms at
+100 Hz; the real ones −11.3 to −12.8 ms (any three of the four).
 
 Public scheme (as in public Baxter code): r = τ_meas − τ(q, q̇, 0) against
 :data:`PUBLIC_THRESHOLDS_NM`, a collision on any sample above (:func:`public_residual`,
@@ -47,13 +49,14 @@ stored with the thresholds and used by the detector.
 
 Slow bias: torque-sensor offsets drift between recordings (on the real ones, w2's by 0.09 N·m
 between the random-motion recording and the sinusoids, against thresholds of 0.2 N·m there). With
-``bias_time_constant_s`` = T_b > 0 the detector compares ρ = r − b with the thresholds, b a
-first-order low-pass of r (b_k = b_{k−1} + (Δt_k/T_b)(r_{k−1} − b_{k−1}), b = 0 at the start)
-updated while the detector is off and held while it is on, so a contact never leaks into b. The calibration
-applies the same low-pass to its collision-free r (:func:`calibrate_thresholds` with stamps).
+``bias_time_constant_s`` = T_b > 0 the detector compares r̃ = r − r̄ with the thresholds, r̄ a
+first-order low-pass of r (r̄_k = r̄_{k−1} + (Δt_k/T_b)(r_{k−1} − r̄_{k−1}), r̄ = 0 at the start)
+updated while the detector is off and held while it is on, so a contact never leaks into r̄. The
+calibration rule then runs on the r̃ of its collision-free data (:func:`calibrate_thresholds` with
+stamps; :func:`without_bias`). T_b = 0: r̃ = r.
 
-Detector (:class:`CollisionDetector`): on when some joint's |ρ_j| > threshold_j for ≥ ``consecutive``
-samples in a row; off once every |ρ_j| < ``release_fraction`` · threshold_j for ``hold_s``. The
+Detector (:class:`CollisionDetector`): on when some joint's |r̃_j| > threshold_j for ≥ ``consecutive``
+samples in a row; off once every |r̃_j| < ``release_fraction`` · threshold_j for ``hold_s``. The
 release fraction defaults to 1 / margin, the level the calibration data stayed under: lower, and
 normal motion alone keeps the detector on after a contact.
 """
@@ -518,7 +521,7 @@ def calibrate_thresholds(
 
 
 def without_bias(r: np.ndarray, stamps_ns: np.ndarray, time_constant_s: float) -> np.ndarray:
-    """ρ = r − b (N, 7) for r (N, 7) N·m at stamps_ns (N,): b the slow bias (module docstring), the detector off throughout."""
+    """r̃ = r − r̄ (N, 7) for r (N, 7) N·m at stamps_ns (N,): r̄ the slow bias (module docstring), the detector off throughout."""
     if time_constant_s == 0:
         return np.array(r, dtype=np.float64)
     dt = np.diff(np.asarray(stamps_ns, dtype=np.int64), prepend=stamps_ns[0]) * 1e-9
@@ -573,7 +576,7 @@ class DetectorState(NamedTuple):
 
 
 class CollisionDetector:
-    """Hysteresis on |ρ| = |r − b| against thresholds (module docstring; b = 0 when the thresholds'
+    """Hysteresis on |r̃| = |r − r̄| against thresholds (module docstring; r̄ = 0 when the thresholds'
     bias_time_constant_s is 0).
 
     It turns on after ``thresholds.consecutive`` samples in a row above on one joint; release_fraction:

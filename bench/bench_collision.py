@@ -213,11 +213,11 @@ def _real_files(arm: ArmModel, recordings: list[tuple[str, Recording]], options:
         train = [r for i, r in enumerate(recordings) if i != k]
         compensation = _diagnosed(arm, train, [(name, held_out)])
         thresholds = options.calibrate(arm, [rec for _, rec in train], compensation)
-        # The margin this held-out file would have needed: the largest ρ / (threshold at margin 1)
-        # that lasts the detector's samples in a row (ρ = r without its slow bias, the detector off).
+        # The margin this held-out file would have needed: the largest r̃ / (threshold at margin 1)
+        # that lasts the detector's samples in a row (r̃ = r without its slow bias, the detector off).
         r = observe(arm, held_out, options.gain, compensation, thresholds.effort_delay_s)
-        rho = without_bias(r, held_out.stamps_ns, thresholds.bias_time_constant_s)
-        ratio = sliding_window_view(np.abs(rho) * options.margin / thresholds.at(held_out.qd), thresholds.consecutive, axis=0).min(axis=-1)
+        r_tilde = without_bias(r, held_out.stamps_ns, thresholds.bias_time_constant_s)
+        ratio = sliding_window_view(np.abs(r_tilde) * options.margin / thresholds.at(held_out.qd), thresholds.consecutive, axis=0).min(axis=-1)
         needed = ratio.max(axis=0)
         before = ours.false_positives, public.false_positives
         _run_both(arm, compensation, thresholds, held_out, [], ours, public)

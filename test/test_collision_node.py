@@ -9,7 +9,6 @@ external torque on e1: the effort then lacks CONTACT_NM there, and r ≈ −CONT
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
