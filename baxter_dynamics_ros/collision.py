@@ -206,10 +206,16 @@ def momentum_terms(
 ) -> tuple[np.ndarray, np.ndarray]:
     """p = M(q) q̇ (kg·m²/s) and β = τ_meas + Cᵀ(q, q̇) q̇ − G(q) (N·m), both (M, 7), for (M, 7) inputs."""
     model = _model(arm, compensation)
-    if compensation is not None:
-        effort = effort - compensation.torque(q, qd, np.zeros_like(q))
     p, w = lagrange_euler.momentum_terms(model.dh, model.pseudo_inertias, model.gravity_m_s2, q, qd, MDOT_STEP_S)
-    return p, effort + w
+    return p, _beta_in_place(w, q, qd, effort, compensation)
+
+
+def _beta_in_place(w: np.ndarray, q: np.ndarray, qd: np.ndarray, effort: np.ndarray, compensation: Compensation | None) -> np.ndarray:
+    """β = w + τ_meas (less the compensation's share at q̈ = 0), in w (M, 7): w = Cᵀ q̇ − G of the core."""
+    w += effort
+    if compensation is not None:
+        w -= compensation.torque(q, qd, np.zeros_like(q))
+    return w
 
 
 class MomentumObserver:
@@ -250,13 +256,11 @@ class MomentumObserver:
             q, qd, tau_meas = self._aligner.push(dt_s, q, qd, tau_meas)
         sample, terms, model = self._sample, self._terms, self._model
         sample[0, 0], sample[1, 0], sample[2, 0] = q, qd, tau_meas
-        if self.compensation is not None:
-            sample[2] -= self.compensation.torque(sample[0], sample[1], np.zeros((1, N)))
-        # The compiled kernel of momentum_terms, without its front's per-call checks.
+        # momentum_terms with the compiled kernel called directly, without its front's per-call checks.
         lagrange_euler.batch_momentum_terms(
             model.dh, model.pseudo_inertias, model.gravity_m_s2, sample[0], sample[1], MDOT_STEP_S, terms[0], terms[1]
         )  # fmt: skip
-        terms[1] += sample[2]
+        _beta_in_place(terms[1], sample[0], sample[1], sample[2], self.compensation)
         return self._step(terms[0, 0], terms[1, 0], dt_s)
 
     def _step(self, p: np.ndarray, beta: np.ndarray, dt_s: float) -> np.ndarray:
