@@ -289,6 +289,16 @@ def _mass_from_composite(S, Jc, out, B):
             out[k, i] = m
 
 
+@njit(cache=True)
+def _mass_at(K, q, J, T, S, Jb, Jc, B, out):
+    """M(q) (7, 7) into out, leaving T, S and Jb those of q; Jc (7, 4, 4) and B (4, 4) are scratch."""
+    _chain(K, q, T)
+    _axes(T, S)
+    _base_inertias(T, J, Jb, B)
+    _composite(Jb, Jc)
+    _mass_from_composite(S, Jc, out, B)
+
+
 # ----------------------------------------------------------------------------- kernels (batches)
 @njit(cache=True)
 def batch_inverse_dynamics(dh, J, g, q, qd, qdd, use_gravity, out):
@@ -330,11 +340,7 @@ def batch_mass_matrix(dh, J, q, out):
     Jb = np.empty((N, 4, 4))
     Jc = np.empty((N, 4, 4))
     for n in range(q.shape[0]):
-        _chain(K, q[n], T)
-        _axes(T, S)
-        _base_inertias(T, J, Jb, B)
-        _composite(Jb, Jc)
-        _mass_from_composite(S, Jc, out[n], B)
+        _mass_at(K, q[n], J, T, S, Jb, Jc, B, out[n])
 
 
 def inertial_basis() -> np.ndarray:
@@ -390,7 +396,6 @@ def batch_momentum_terms(dh, J, g, q, qd, eps, p_out, w_out):
     S = np.empty((N, 6))
     Jb = np.empty((N, 4, 4))
     Jc = np.empty((N, 4, 4))
-    B3 = np.empty((3, 4))
     Dsum = np.empty((3, 4))
     Phi = np.empty((N, 3, 4))
     D = np.empty((3, 4))
@@ -400,11 +405,7 @@ def batch_momentum_terms(dh, J, g, q, qd, eps, p_out, w_out):
     qs = np.empty(N)
     n_vec = np.empty(N)
     for n in range(q.shape[0]):
-        _chain(K, q[n], T)
-        _axes(T, S)
-        _base_inertias(T, J, Jb, B)
-        _composite(Jb, Jc)
-        _mass_from_composite(S, Jc, Mm, B3)
+        _mass_at(K, q[n], J, T, S, Jb, Jc, B, Mm)
         _rne_sweep(S, Jb, qd[n], zero, g, True, n_vec, Dsum, Phi, D)
         for i in range(N):
             s = 0.0
@@ -415,11 +416,7 @@ def batch_momentum_terms(dh, J, g, q, qd, eps, p_out, w_out):
         for sign in (1.0, -1.0):
             for i in range(N):
                 qs[i] = q[n, i] + sign * eps * qd[n, i]
-            _chain(K, qs, T)
-            _axes(T, S)
-            _base_inertias(T, J, Jb, B)
-            _composite(Jb, Jc)
-            _mass_from_composite(S, Jc, Mp, B3)
+            _mass_at(K, qs, J, T, S, Jb, Jc, B, Mp)
             for i in range(N):
                 s = 0.0
                 for k in range(N):
@@ -468,11 +465,7 @@ def batch_forward_dynamics(dh, J, g, q, qd, tau, out):
     h = np.empty(N)
     zero = np.zeros(N)
     for n in range(q.shape[0]):
-        _chain(K, q[n], T)
-        _axes(T, S)
-        _base_inertias(T, J, Jb, B)
-        _composite(Jb, Jc)
-        _mass_from_composite(S, Jc, Mm, B)
+        _mass_at(K, q[n], J, T, S, Jb, Jc, B, Mm)
         _rne_sweep(S, Jb, qd[n], zero, g, True, h, Dsum, Phi, D)
         for i in range(N):
             h[i] = tau[n, i] - h[i]
