@@ -309,13 +309,31 @@ def observe_arrays(
     effort_delay_s: float = 0.0,
 ) -> np.ndarray:
     """:func:`observe` on arrays: stamps_ns (N,) ns, q, qd, effort (N, 7); r (N, 7) N·m."""
-    observer = MomentumObserver(arm, gain_1_s, compensation, effort_delay_s)
+    k = _gain(gain_1_s)
+    effort_delay_s = _effort_delay(effort_delay_s)
     dt = np.diff(np.asarray(stamps_ns, dtype=np.int64), prepend=stamps_ns[0]) * 1e-9
-    if observer._aligner is not None:
-        aligned = [observer._aligner.push(float(dt[k]), q[k], qd[k], effort[k]) for k in range(len(q))]
+    if effort_delay_s:
+        aligner = _Aligner(effort_delay_s)
+        aligned = [aligner.push(float(dt[i]), q[i], qd[i], effort[i]) for i in range(len(q))]
         q, qd, effort = (np.array([a[i] for a in aligned]).reshape(-1, N) for i in range(3))
     p, beta = momentum_terms(arm, q, qd, effort, compensation)
-    return np.array([observer._step(p[k], beta[k], float(dt[k])) for k in range(len(q))]).reshape(-1, N)
+    return _observer_run(p, beta, dt, k)
+
+
+def _observer_run(p: np.ndarray, beta: np.ndarray, dt: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """r (N, 7) of the observer over p, β (N, 7) with steps dt (N,) s and gains k (7,) 1/s: the
+    numbers of :class:`MomentumObserver` (r_0 = 0, sample 0 sets p(0))."""
+    r = np.zeros_like(p)
+    _observer_steps(p, beta, dt, k, r)
+    return r
+
+
+@njit(cache=True)
+def _observer_steps(p, beta, dt, k, r):
+    """:func:`_observer_step` over samples 1 … N−1 into r (N, 7), from p(0) = p[0] and I = 0."""
+    integral = np.zeros(p.shape[1])
+    for i in range(1, p.shape[0]):
+        _observer_step(p[i], beta[i], p[0], integral, k, dt[i], r[i])
 
 
 def estimate_effort_delay(
@@ -337,7 +355,7 @@ def estimate_effort_delay(
     candidates = np.arange(-MAX_EFFORT_DELAY_S, MAX_EFFORT_DELAY_S + EFFORT_DELAY_STEP_S / 2, EFFORT_DELAY_STEP_S)
     # The state at t with the effort recorded at t + d (the same pairs as the observer's, shifted in time).
     cost = np.array([
-        sum(_squared_residual(p, w + np.stack([np.interp(t + d, t, e[:, j]) for j in range(N)], axis=1), dt, k) for t, dt, p, w, e in prepared)
+        sum(np.sum(_observer_run(p, w + np.stack([np.interp(t + d, t, e[:, j]) for j in range(N)], axis=1), dt, k) ** 2) for t, dt, p, w, e in prepared)
         for d in candidates
     ])  # fmt: skip
     i = int(np.argmin(cost))
@@ -347,19 +365,6 @@ def estimate_effort_delay(
         if curvature > 0:
             best += EFFORT_DELAY_STEP_S * 0.5 * (cost[i - 1] - cost[i + 1]) / curvature
     return round(best, 4)
-
-
-@njit(cache=True)
-def _squared_residual(p, beta, dt, k):
-    """Σ r² of the observer run over (N, 7) p and β with steps dt (N,) s, from r = 0."""
-    integral = np.zeros(p.shape[1])
-    r = np.empty(p.shape[1])
-    total = 0.0
-    for i in range(1, p.shape[0]):
-        _observer_step(p[i], beta[i], p[0], integral, k, dt[i], r)
-        for j in range(r.shape[0]):
-            total += r[j] * r[j]
-    return total
 
 
 def public_residual(arm: ArmModel, recording: Recording, compensation: Compensation | None = None) -> np.ndarray:
