@@ -538,9 +538,14 @@ def without_bias(r: np.ndarray, stamps_ns: np.ndarray, time_constant_s: float) -
     bias = np.zeros(r.shape[1])
     for k in range(len(r)):
         if k:
-            bias += min(dt[k] / time_constant_s, 1.0) * (r[k - 1] - bias)
+            _follow_bias(bias, r[k - 1], float(dt[k]), time_constant_s)
         out[k] = r[k] - bias
     return out
+
+
+def _follow_bias(bias: np.ndarray, r_before: np.ndarray, dt_s: float, time_constant_s: float) -> None:
+    """One step of the slow bias r̄ (7,), in place (module docstring): r̄ += min(Δt/T_b, 1)(r_{k−1} − r̄)."""
+    bias += min(dt_s / time_constant_s, 1.0) * (r_before - bias)
 
 
 def calibrate(
@@ -616,7 +621,7 @@ class CollisionDetector:
         time_constant = self.thresholds.bias_time_constant_s
         if time_constant > 0:
             if self._last_r is not None and not self.state.collision:
-                self._bias += min(dt_s / time_constant, 1.0) * (self._last_r - self._bias)
+                _follow_bias(self._bias, self._last_r, dt_s, time_constant)
             self._last_r = np.array(r, dtype=np.float64)
             r = r - self._bias
         limit = self.thresholds.at(qd)
