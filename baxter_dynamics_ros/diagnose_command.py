@@ -103,8 +103,11 @@ def _summary(result) -> str:
     joints = [n.split("_", 1)[-1] for n in result.joint_names]
     lines = [
         "held-out RMS per joint [N·m]: " + "  ".join(joints),
-        "  rigid model (raw q̈) " + "  ".join(f"{v:6.3f}" for v in result.baseline_test_rms),
-        "  with effects        " + "  ".join(f"{v:6.3f}" for v in result.final_test_rms),
-        "selected effects: " + (", ".join(e.name for e in result.selected()) or "none"),
+        "  rigid model (raw q̈)      " + "  ".join(f"{v:6.3f}" for v in result.baseline_test_rms),
+        "  rigid model (denoised q̈) " + "  ".join(f"{v:6.3f}" for v in result.denoised_test_rms),
+        "  with effects             " + "  ".join(f"{v:6.3f}" for v in result.final_test_rms),
+        "selected effects: "
+        + (", ".join(e.name + (" (uncertain)" if e.uncertain else "") + (f" at {', '.join(j.split('_', 1)[-1] for j in e.joints)}" if e.name != "acceleration_noise" else "") for e in result.selected()) or "none"),
+        *(f"WARNING: {w}" for w in result.warnings()),
     ]
     return "\n".join(lines)

@@ -1,43 +1,45 @@
-"""Which unmodelled effect causes the sim-to-real gap, and how far adding it shrinks the gap.
+"""Which unmodelled effect causes the sim-to-real gap, how far adding it shrinks the gap, and how far to trust that.
 
-Method (forward selection over linear models, scored on held-out data):
+Method:
 
-1. Worlds. The rigid-body residual r = effort − τ(q, q̇, q̈) depends on how q̈ is estimated. The
-   *raw* world uses the paper's first difference of q̇; the *filtered* world a zero-phase low-pass
-   on q̇ before differentiating (cutoff chosen on the training data). Switching from raw to
-   filtered is the candidate ``acceleration_noise``: the part of the gap that is noise of the
-   differentiated q̈, not physics.
-2. Candidates. Every other effect of :mod:`baxter_dynamics_ros.effects` is linear in its
-   parameters θ for fixed shape parameters (friction velocity scales): its share of the effort is
-   Φ θ with Φ = ``effect.regressor``. Shape parameters are searched on a small grid; each grid point
-   is a variant of its effect.
-3. Sufficient statistics. Per segment (a training file, or a contiguous block of a lone file) and
-   per joint j, H_j = Σ Φ_jᵀ Φ_j, b_j = Σ Φ_jᵀ r_j and r_jᵀ r_j are accumulated once for all
-   candidate columns. Any fit is then a small bounded least-squares problem (friction, armature and
-   delay ≥ 0), and the squared error of any fit on any segment is exact: r·r − 2 θ·b + θᵀ H θ.
-4. Selection. Starting from the rigid-body model in the raw world, each step adds the candidate
-   with the largest cross-validated gain (leave one segment out) in total squared error, net of an
-   AIC-like penalty of 2 σ̂² per parameter and effective sample (samples 0.1 s apart count as one).
-   A candidate is selected only if it still gains after the penalty, cuts some joint's held-out
-   error by ≥ 5 %, and its fitted parameters are physically plausible (see :func:`_plausibility`;
-   a free inertial fit that moves a centre of mass by a metre to imitate the s1 spring is not).
-5. Held-out figures. Selected effects are refitted on all training data and every "after"
-   figure is measured on the test data, which no fit has seen.
+1. **Noise first, physics second.** The rigid-body residual r = effort − τ(q, q̇, q̈) depends on
+   how q̈ is estimated. Physical effects are attributed in the *denoised* world only: q̇ low-passed
+   forwards and backwards before differentiating, at the cut-off that leaves the smallest rigid
+   residual on the training data (:func:`~baxter_dynamics_ros.diagnosis_statistics.choose_cutoff`).
+   ``acceleration_noise`` is the share of the gap that this filtering alone removes against the
+   paper's first difference; it is ranked with the others by its share, but no physical effect is
+   ever fitted to differentiation noise.
+2. **Candidates and statistics.** Every other effect is linear in its parameters (or, for the
+   inertial ones, in the inertial parameters of whole links); each training recording is reduced to
+   sufficient statistics per contiguous block (:mod:`~baxter_dynamics_ros.diagnosis_statistics`).
+3. **Physically consistent fits** (:mod:`~baxter_dynamics_ros.diagnosis_fit`): payloads and link
+   changes are fitted inside the physical set (log-Cholesky pseudo-inertias, bounded masses and
+   centres of mass, a prior towards the paper's values), never fitted freely and then judged.
+4. **Selection that does not depend on its order** (:mod:`~baxter_dynamics_ros.diagnosis_selection`):
+   stepwise additions with removals and swaps within families after each, per-joint effects at the
+   joints where they pay, cross-validated across training recordings (leave one out; a lone
+   recording: its four blocks), nothing kept whose parameters are within their uncertainty of zero.
+5. **How much to trust it.** Stability: the selection is run again on every cross-validation fold's
+   training part (starting from the selected set); an effect chosen in fewer than ¾ of the folds is
+   *uncertain*. Held-out verdict: every figure "after" is measured on the test data, which no fit
+   and no decision has seen; per effect and joint, whether it helped there; and in plain words when
+   the selected set leaves a joint worse than the denoised rigid model. Offsets that differ between
+   recordings are reported as drift, with each recording's value.
 
-Everything here is numpy (and scipy's bounded least squares); no ROS.
+Everything here is numpy and scipy; no ROS.
 """
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.optimize import lsq_linear
 
-from .acceleration import first_difference, zero_phase_acceleration
 from .arm_model import ArmModel, pseudo_inertia
+from .diagnosis_fit import Fit, Fitter, Model, Term
+from .diagnosis_selection import MIN_JOINT_GAIN, MIN_JOINT_GAIN_NM, Evaluation, select
+from .diagnosis_statistics import N, Block, Candidate, ColumnLayout, Pool, active_columns, choose_cutoff, column_layout, prepare, recording_blocks, default_groups, regressor
 from .effects import (
     EFFECTS,
     Armature,
@@ -53,368 +55,69 @@ from .effects import (
 )
 from .errors import DiagnosisError
 from .gap_analysis import GapSummary, summarise_gap
-from .lagrange_euler import inertial_basis
+from .log_cholesky import pseudo_from_log_cholesky
 from .recording import Recording
 
-__all__ = [
-    "CANDIDATE_NAMES",
-    "DiagnosisResult",
-    "EffectReport",
-    "diagnose",
-]
+__all__ = ["CANDIDATE_NAMES", "MIN_RECORDING_S", "MIN_RECORDING_SAMPLES", "STABLE_FRACTION", "DiagnosisResult", "EffectReport", "diagnose"]
 
-N = 7
-S1 = 1  # index of joint s1
 #: The candidate effects: every effect of the library, in its order.
 CANDIDATE_NAMES = tuple(EFFECTS)
-#: Cut-offs (Hz) tried for the filtered world's zero-phase low-pass on q̇.
-CUTOFF_GRID_HZ = (1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0)
-#: Samples closer than this are counted as one in the complexity penalty.
-DECORRELATION_S = 0.1
-#: A selected effect must cut the held-out squared error of at least one joint by this fraction,
-#: and its held-out RMS by MIN_JOINT_GAIN_NM (about the effort's quantisation and noise).
-MIN_JOINT_GAIN = 0.05
-MIN_JOINT_GAIN_NM = 0.01
-#: Departures beyond which a fitted inertial change is not physical.
-MAX_MASS_CHANGE = 0.5  # fraction of the link's mass
-MAX_MASS_CHANGE_KG = 0.5
-MAX_COM_SHIFT_M = 0.1
-MAX_PAYLOAD_KG = 10.0
-MAX_PAYLOAD_COM_M = 0.3
-CHUNK = 8192
-#: Relative ridge of every fit (on unit-norm columns).
-RIDGE = 1e-7
+#: Contiguous blocks each training recording is cut into (the statistics' unit).
+BLOCKS_PER_RECORDING = 4
+#: Effects chosen in fewer than this fraction of the cross-validation folds are uncertain.
+STABLE_FRACTION = 0.75
+#: A joint's held-out RMS that changes by less than this fraction counts as unchanged.
+VERDICT_TOLERANCE = 0.01
+#: What a recording needs (each training block must span several decorrelation times, the
+#: q̇ filter needs its padding, and the regime statistics their bins).
+MIN_RECORDING_SAMPLES = 200
+MIN_RECORDING_S = 2.0
 
 
-@dataclass(frozen=True)
-class _Candidate:
-    """One variant of an effect: its template (shape parameters fixed) and how θ becomes an effect."""
-
-    name: str
-    variant: str
-    template: Effect
-    lower: np.ndarray  # (p,) lower bounds of θ
-    build: Callable[[np.ndarray], Effect]
-    prior_std: np.ndarray | None = None  # (p,) how far θ may plausibly stray from 0 (inertial effects)
-    columns: slice | None = None  # where its θ sits among all candidates' columns
-
-    @property
-    def n_params(self) -> int:
-        return len(self.lower)
-
-
-def _joint_bound(value: float) -> np.ndarray:
-    return np.full(N, value)
-
-
-def _candidates(arm: ArmModel) -> list[_Candidate]:
-    """Every linear candidate variant; acceleration_noise is the world switch, not a column set."""
-    inf = -np.inf
-    out = [
-        _Candidate("torque_offset", "", TorqueOffset(offset_nm=0.0), _joint_bound(inf), lambda t: TorqueOffset(offset_nm=t)),
-        _Candidate(
-            "viscous_friction", "", ViscousFriction(damping_nm_s_rad=0.0), _joint_bound(0.0), lambda t: ViscousFriction(damping_nm_s_rad=t)
-        ),
-    ]
-    for eps in (0.01, 0.05):
-        out.append(
-            _Candidate(
-                "coulomb_friction",
-                f"smoothing {eps:g} rad/s",
-                CoulombFriction(friction_nm=0.0, smoothing_rad_s=eps),
-                _joint_bound(0.0),
-                lambda t, eps=eps: CoulombFriction(friction_nm=t, smoothing_rad_s=eps),
-            )
-        )
-    for vs in (0.02, 0.05, 0.1, 0.2):
-        out.append(
-            _Candidate(
-                "stribeck_friction",
-                f"v_s {vs:g} rad/s",
-                StribeckFriction(coulomb_nm=0.0, static_nm=0.0, stribeck_rad_s=vs),
-                np.zeros(2 * N),
-                lambda t, vs=vs: StribeckFriction(coulomb_nm=t[:N], static_nm=t[N:], stribeck_rad_s=vs),
-            )
-        )
-    out += [
-        _Candidate(
-            "s1_spring", "", S1Spring(), np.full(3, inf), lambda t: S1Spring(preload_nm=t[0], cosine_nm=t[1], sine_nm=t[2])
-        ),
-        _Candidate("payload", "", Payload(mass_kg=1.0), np.full(10, inf), _payload_from, PAYLOAD_PRIOR_STD),
-        _Candidate("inertial_error", "", InertialError(), np.full(10 * N, inf), _inertial_from, _inertial_prior_std(arm)),
-        _Candidate("armature", "", Armature(inertia_kgm2=0.0), _joint_bound(0.0), lambda t: Armature(inertia_kgm2=t)),
-        _Candidate("delay", "", Delay(delay_s=0.0), np.zeros(1), lambda t: Delay(delay_s=float(t[0]))),
-    ]
-    start = 0
-    placed = []
-    for c in out:
-        p = c.n_params
-        placed.append(dataclasses.replace(c, columns=slice(start, start + p)))
-        start += p
-    return placed
-
-
-#: Prior standard deviations of a payload's inertial parameters (m, m·c, I about the flange).
-PAYLOAD_PRIOR_STD = np.array([2.0, 0.2, 0.2, 0.2, 0.02, 0.02, 0.02, 0.02, 0.02, 0.02])
-
-
-def _inertial_prior_std(arm: ArmModel) -> np.ndarray:
-    """(70,) prior standard deviations of the links' parameter changes: "bounded departures from
-    the paper's values", 25 % of each nominal parameter plus a floor (0.05 kg, 0.01 kg·m,
-    0.002 kg·m²)."""
-    floor = np.array([0.05, 0.01, 0.01, 0.01, 0.002, 0.002, 0.002, 0.002, 0.002, 0.002])
-    return 0.25 * np.abs(arm.inertial_parameters) + np.tile(floor, N)
-
-
-def _pseudo_from_parameters(theta: np.ndarray) -> np.ndarray:
-    """(10,) inertial parameters (lagrange_euler.inertial_basis order) → pseudo-inertia change (4, 4)."""
-    return np.tensordot(theta, inertial_basis(), axes=1)
-
-
-def _payload_from(theta: np.ndarray) -> Effect:
-    """The fitted load as a point mass at its centre of mass (its own inertia is not kept)."""
-    j = _pseudo_from_parameters(theta)
-    mass = j[3, 3]
-    if not mass > 0:
-        raise DiagnosisError(f"payload fit has a non-positive mass {mass:.4g} kg")
-    return Payload(mass_kg=float(mass), com_m=j[:3, 3] / mass)
-
-
-def _inertial_from(theta: np.ndarray) -> Effect:
-    """The fitted change of the links' inertial parameters."""
-    return InertialError(parameter_change=theta)
-
-
-# ----------------------------------------------------------------------------- statistics
-@dataclass
-class _Segment:
-    """Sufficient statistics of one contiguous piece of data in one world, per joint."""
-
-    label: str
-    samples: int
-    duration_s: float
-    H: np.ndarray  # (7, P, P)
-    b: np.ndarray  # (7, P)
-    rr: np.ndarray  # (7,)
-
-    def sse(self, cols: np.ndarray, theta: np.ndarray) -> np.ndarray:
-        """(7,) squared error per joint of the fit θ on the columns cols."""
-        if len(cols) == 0:
-            return self.rr.copy()
-        hb = self.H[:, cols][:, :, cols]
-        return self.rr - 2.0 * self.b[:, cols] @ theta + np.einsum("p,jpq,q->j", theta, hb, theta)
-
-
-@dataclass(frozen=True)
-class _Prepared:
-    """A recording's arrays for one world: q̈, rigid residual and the time base."""
-
-    q: np.ndarray
-    qd: np.ndarray
-    qdd: np.ndarray
-    qdd_smooth: np.ndarray
-    residual: np.ndarray
-    stamps_s: np.ndarray
-
-
-def _prepare(arm: ArmModel, rec: Recording, cutoff_hz: float | None) -> _Prepared:
-    """Rigid residual with the raw (cutoff None) or zero-phase filtered q̈."""
-    stamps = rec.stamps_s
-    smooth = zero_phase_acceleration(rec.qd, rec.rate_hz, min(5.0, 0.4 * rec.rate_hz))
-    qdd = first_difference(rec.qd, stamps) if cutoff_hz is None else zero_phase_acceleration(rec.qd, rec.rate_hz, cutoff_hz)
-    residual = rec.effort - arm.inverse_dynamics(rec.q, rec.qd, qdd)
-    return _Prepared(rec.q, rec.qd, qdd, smooth, residual, stamps)
-
-
-def _regressor(arm: ArmModel, candidates: list[_Candidate], p: _Prepared, lo: int, hi: int, delay_column: np.ndarray) -> np.ndarray:
-    """(n, 7, P) every candidate's columns on samples lo:hi."""
-    q, qd, qdd = p.q[lo:hi], p.qd[lo:hi], p.qdd[lo:hi]
-    blocks = []
-    for c in candidates:
-        if c.name == "delay":
-            blocks.append(delay_column[lo:hi])
-        else:
-            blocks.append(c.template.regressor(arm, q, qd, qdd))
-    return np.concatenate(blocks, axis=2)
-
-
-def _active_columns(arm: ArmModel, candidates: list[_Candidate], n_cols: int) -> list[np.ndarray]:
-    """Per joint, the columns that can be non-zero on it (probed on random states)."""
-    rng = np.random.default_rng(0)
-    q = rng.uniform(arm.lower_rad, arm.upper_rad, (32, N))
-    qd, qdd = rng.uniform(-1, 1, (2, 32, N))
-    probe = _Prepared(q, qd, qdd, qdd, np.zeros_like(q), np.arange(32) * 0.01)
-    phi = _regressor(arm, candidates, probe, 0, 32, np.ones((32, N, 1)))
-    return [np.flatnonzero(np.any(phi[:, j, :] != 0.0, axis=0)) for j in range(N)]
-
-
-def _segment(
-    arm: ArmModel, candidates: list[_Candidate], active: list[np.ndarray], n_cols: int, p: _Prepared, lo: int, hi: int, label: str, delay_column: np.ndarray
-) -> _Segment:
-    H = np.zeros((N, n_cols, n_cols))
-    b = np.zeros((N, n_cols))
-    rr = np.zeros(N)
-    for start in range(lo, hi, CHUNK):
-        stop = min(hi, start + CHUNK)
-        phi = _regressor(arm, candidates, p, start, stop, delay_column)
-        r = p.residual[start:stop]
-        for j in range(N):
-            idx = active[j]
-            x = phi[:, j, idx]
-            H[j][np.ix_(idx, idx)] += x.T @ x
-            b[j, idx] += x.T @ r[:, j]
-        rr += np.sum(r**2, axis=0)
-    return _Segment(label, hi - lo, float(p.stamps_s[hi - 1] - p.stamps_s[lo]), H, b, rr)
-
-
-# ----------------------------------------------------------------------------- fitting
-@dataclass(frozen=True)
-class _Model:
-    """A set of selected candidates in a world.
-
-    With both ``s1_spring`` and ``torque_offset``, the offset of s1 is left out: the spring's
-    preload is that constant, and two columns for one number would split it arbitrarily.
-    """
-
-    world: str  # "raw" or "filtered"
-    members: tuple[_Candidate, ...]
-    prior_weight: float = 0.0  # σ² of the residual × samples per effective sample, N·m²
-
-    def _mask(self) -> list[np.ndarray]:
-        spring = any(c.name == "s1_spring" for c in self.members)
-        masks = []
-        for c in self.members:
-            keep = np.ones(c.n_params, dtype=bool)
-            if spring and c.name == "torque_offset":
-                keep[S1] = False
-            masks.append(keep)
-        return masks
-
-    def columns(self) -> np.ndarray:
-        cols = [np.arange(c.columns.start, c.columns.stop)[m] for c, m in zip(self.members, self._mask())]
-        return np.concatenate(cols).astype(int) if cols else np.zeros(0, int)
-
-    def lower(self) -> np.ndarray:
-        lows = [c.lower[m] for c, m in zip(self.members, self._mask())]
-        return np.concatenate(lows) if lows else np.zeros(0)
-
-    def n_params(self, segments: Sequence[_Segment]) -> float:
-        """Effective number of parameters: a column under a prior counts by how much the data
-        decides it, H (H + P)⁻¹ on its diagonal; the filter's cut-off counts one."""
-        precision = self.prior_precision()
-        free = float(np.sum(precision == 0))
-        prior_cols = self.columns()[precision > 0]
-        if len(prior_cols):
-            H = sum(s.H[:, prior_cols][:, :, prior_cols].sum(axis=0) for s in segments)
-            P = np.diag(precision[precision > 0])
-            free += float(np.trace(np.linalg.solve(H + P, H)))
-        return free + (1 if self.world == "filtered" else 0)
-
-    def prior_precision(self) -> np.ndarray:
-        """Per column, the weight of the prior's Σ (θ_k / std_k)² in squared-error units."""
-        out = []
-        for c, keep in zip(self.members, self._mask()):
-            std = c.prior_std if c.prior_std is not None else np.full(c.n_params, np.inf)
-            out.append(self.prior_weight / std[keep] ** 2)
-        return np.concatenate(out) if out else np.zeros(0)
-
-    def split(self, theta: np.ndarray) -> list[np.ndarray]:
-        """θ per member, in its full parameter layout (left-out columns are 0)."""
-        out, k = [], 0
-        for c, keep in zip(self.members, self._mask()):
-            full = np.zeros(c.n_params)
-            n = int(keep.sum())
-            full[keep] = theta[k : k + n]
-            out.append(full)
-            k += n
-        return out
-
-
-def _fit(segments: Sequence[_Segment], model: _Model) -> np.ndarray:
-    """Bounded least squares θ ≥ lower on the model's columns, from summed statistics.
-
-    The model's prior (inertial effects) adds Σ w_k θ_k² to the squared error: a Gaussian prior
-    θ_k ~ N(0, std_k²) weighed against the data's noise. Columns are scaled to unit norm, and a
-    ridge of RIDGE (relative) keeps directions the data cannot see at zero. Columns the data
-    never excites are left at zero.
-    """
-    cols, lower = model.columns(), model.lower()
-    theta = np.zeros(len(cols))
-    if len(cols) == 0:
-        return theta
-    H = sum(s.H[:, cols][:, :, cols].sum(axis=0) for s in segments) + np.diag(model.prior_precision())
-    b = sum(s.b[:, cols].sum(axis=0) for s in segments)
-    diag = np.diag(H)
-    seen = diag > 1e-14 * max(float(diag.max()), 1e-300)
-    scale = np.sqrt(diag[seen])
-    Hs = H[np.ix_(seen, seen)] / np.outer(scale, scale) + RIDGE * np.eye(int(seen.sum()))
-    bs = b[seen] / scale
-    low = lower[seen] * scale
-    if np.all(~np.isfinite(low)):
-        theta[seen] = np.linalg.solve(Hs, bs) / scale
-        return theta
-    L = np.linalg.cholesky(Hs)
-    result = lsq_linear(L.T, np.linalg.solve(L, bs), bounds=(low, np.full(len(low), np.inf)), method="bvls")
-    theta[seen] = result.x / scale
-    return theta
-
-
-def _cv_sse(model: _Model, segments: dict[str, list[_Segment]]) -> tuple[np.ndarray, list[np.ndarray]]:
-    """Held-out squared error per joint, summed over leave-one-segment-out folds; and the fold fits."""
-    segs = segments[model.world]
-    cols = model.columns()
-    total = np.zeros(N)
-    fits = []
-    for k, held in enumerate(segs):
-        train = [s for i, s in enumerate(segs) if i != k]
-        theta = _fit(train, model)
-        fits.append(theta)
-        total += held.sse(cols, theta)
-    return total, fits
-
-
-def _plausibility(candidate: _Candidate, theta: np.ndarray, arm: ArmModel) -> str:
-    """'' if the fitted parameters are physical, else why not."""
-    if candidate.name == "payload":
-        j = _pseudo_from_parameters(theta)
-        mass = j[3, 3]
-        if not 0 < mass <= MAX_PAYLOAD_KG:
-            return f"payload mass {mass:.3g} kg outside (0, {MAX_PAYLOAD_KG:g}] kg"
-        com = j[:3, 3] / mass
-        if np.linalg.norm(com) > MAX_PAYLOAD_COM_M:
-            return f"payload centre of mass {np.linalg.norm(com):.2f} m from the flange (> {MAX_PAYLOAD_COM_M:g} m)"
-    if candidate.name == "inertial_error":
-        # Only what the data sees is fitted (the ridge keeps the rest at the paper's values), so
-        # the check is on the changes that matter: mass and centre of mass of each link.
-        for i, link in enumerate(arm.links):
-            j = pseudo_inertia(link) + _pseudo_from_parameters(theta[10 * i : 10 * i + 10])
-            mass = j[3, 3]
-            if abs(mass - link.mass_kg) > max(MAX_MASS_CHANGE * link.mass_kg, MAX_MASS_CHANGE_KG):
-                return f"needs link {i + 1}'s mass {link.mass_kg:.3f} → {mass:.3f} kg (beyond ±{MAX_MASS_CHANGE:.0%})"
-            shift = np.linalg.norm(j[:3, 3] / mass - link.com_m) if mass > 0 else np.inf
-            if shift > MAX_COM_SHIFT_M:
-                return f"needs link {i + 1}'s centre of mass moved {shift:.2f} m (beyond {MAX_COM_SHIFT_M:g} m)"
-    return ""
-
-
-# ----------------------------------------------------------------------------- results
 @dataclass(frozen=True)
 class EffectReport:
-    """One candidate's outcome. Arrays (7,) are per joint, N·m."""
+    """One candidate's outcome. Arrays (7,) are per joint, N·m.
+
+    params / params_std: the fitted parameters by name and their standard deviation (the fit's
+    covariance with effective samples, plus the spread across the cross-validation folds);
+    share: the part of the gap it explains, N·m² per sample summed over the joints, the rank's key:
+    for acceleration_noise the rigid residual's fall from raw to filtered q̈; for a physical effect
+    its Shapley share of the training residual's fall from the denoised rigid model to the selected
+    set (each subset of the selected effects refitted; what effects explain together is split
+    equally among them, so no order of adding them matters); cv_gain: held-out (cross-validated) squared error it removes, N·m² per sample summed over the
+    joints — for a selected effect, what removing it from the selected set would add back; for an
+    unselected one, what adding it would remove. folds_selected of folds: the stability count;
+    joint_folds: the same per joint for per-joint effects. test_verdict: per joint it acts on,
+    the held-out RMS with and without it (both fitted on the training data) and "helped" / "hurt" /
+    "no change". drift: per-recording offsets (torque_offset). inertial: the changed links'
+    inertials before and after (payload, inertial_error).
+    """
 
     name: str
     variant: str
     selected: bool
     rank: int
-    reason: str  # why it was (not) selected
+    reason: str
     params: dict[str, float]
-    params_std: dict[str, float]  # jackknife standard deviation across training segments
+    params_std: dict[str, float]
     joints: tuple[str, ...]
-    cv_gain: float  # cross-validated squared error it removed, N·m² per sample summed over joints
+    cv_gain: float
     test_rms_before: np.ndarray
     test_rms_after: np.ndarray
     effect: Effect | None = None
     cutoff_hz: float | None = None
+    folds_selected: int = 0
+    folds: int = 0
+    joint_folds: dict[str, int] = field(default_factory=dict)
+    test_verdict: dict[str, dict] = field(default_factory=dict)
+    drift: dict | None = None
+    inertial: list[dict] | None = None
+    share: float = 0.0
+
+    @property
+    def uncertain(self) -> bool:
+        """Selected in fewer than ¾ of the cross-validation folds."""
+        return self.selected and self.folds > 0 and self.folds_selected < STABLE_FRACTION * self.folds
 
 
 @dataclass(frozen=True)
@@ -426,17 +129,44 @@ class DiagnosisResult:
     train_files: tuple[str, ...]
     test_files: tuple[str, ...]
     holdout: str
+    folds: int
     cutoff_hz: float
     baseline_train_rms: np.ndarray
     baseline_test_rms: np.ndarray
+    denoised_test_rms: np.ndarray
     final_test_rms: np.ndarray
     effects: tuple[EffectReport, ...]
     gap: GapSummary  # where the gap lies, on the test data, rigid model with raw q̈
-    gap_filtered: GapSummary  # the same with filtered q̈
-    test_series: dict[str, np.ndarray] = field(repr=False)  # time, baseline and final residuals of the test data
+    gap_filtered: GapSummary  # the same with the denoised q̈
+    search: tuple[str, ...]  # the selection's moves, in order
+    test_series: dict[str, np.ndarray] = field(repr=False)
 
     def selected(self) -> tuple[EffectReport, ...]:
         return tuple(e for e in self.effects if e.selected)
+
+    @property
+    def worse_joints(self) -> tuple[str, ...]:
+        """Joints whose held-out RMS with the selected effects exceeds the denoised rigid model's."""
+        worse = self.final_test_rms > self.denoised_test_rms * (1.0 + VERDICT_TOLERANCE)
+        return tuple(n for n, w in zip(self.joint_names, worse) if w)
+
+    def warnings(self) -> list[str]:
+        """Plain statements for the top of the report."""
+        out = []
+        if self.worse_joints:
+            out.append(
+                "The selected effects make the held-out residual WORSE than the denoised rigid-body model at "
+                + ", ".join(self.worse_joints)
+                + ": the fitted set does not carry over to the test data there."
+            )
+        uncertain = [e.name for e in self.selected() if e.uncertain]
+        if uncertain:
+            out.append(
+                f"Uncertain (chosen in fewer than {STABLE_FRACTION:.0%} of the {self.folds} cross-validation folds): " + ", ".join(uncertain) + "."
+            )
+        if self.folds <= 2:
+            out.append(f"Only {self.folds} cross-validation folds: a weak vote; more training recordings would make the selection firmer.")
+        return out
 
     def to_dict(self) -> dict:
         """Plain JSON-ready form; the schema is documented in the README."""
@@ -447,53 +177,156 @@ class DiagnosisResult:
             "train_files": list(self.train_files),
             "test_files": list(self.test_files),
             "holdout": self.holdout,
-            "baseline": {"q_ddot": "first difference of q̇ (the paper's)", "train_rms": rms(self.baseline_train_rms), "test_rms": rms(self.baseline_test_rms)},
+            "folds": self.folds,
+            "q_ddot_cutoff_hz": self.cutoff_hz,
+            "baseline": {
+                "q_ddot": "first difference of q̇ (the paper's)",
+                "train_rms": rms(self.baseline_train_rms),
+                "test_rms": rms(self.baseline_test_rms),
+            },
+            "denoised": {"q_ddot": f"zero-phase low-pass of q̇ at {self.cutoff_hz:g} Hz", "test_rms": rms(self.denoised_test_rms)},
             "effects": [
                 {
                     "name": e.name,
                     "variant": e.variant,
                     "rank": e.rank,
                     "selected": e.selected,
+                    "uncertain": e.uncertain,
                     "reason": e.reason,
                     "joints": list(e.joints),
                     "params": e.params,
                     "params_std": e.params_std,
+                    "share_nm2": e.share,
                     "cv_gain_nm2": e.cv_gain,
+                    "folds_selected": e.folds_selected,
+                    "folds": e.folds,
+                    "joint_folds": e.joint_folds,
                     "test_rms_before": rms(e.test_rms_before),
                     "test_rms_after": rms(e.test_rms_after),
+                    "test_verdict": e.test_verdict,
                     **({"cutoff_hz": e.cutoff_hz} if e.cutoff_hz is not None else {}),
+                    **({"drift": e.drift} if e.drift is not None else {}),
+                    **({"inertial": e.inertial} if e.inertial is not None else {}),
                 }
                 for e in self.effects
             ],
             "final": {"test_rms": rms(self.final_test_rms)},
+            "verdict": {"worse_than_denoised": list(self.worse_joints), "warnings": self.warnings()},
+            "search": list(self.search),
             "gap": self.gap.to_dict(),
             "gap_filtered_q_ddot": self.gap_filtered.to_dict(),
         }
 
 
+# ----------------------------------------------------------------------------- helpers
+def _check(arm: ArmModel, label: str, rec: Recording) -> None:
+    if rec.side != arm.side:
+        raise DiagnosisError(f"{label}: a {rec.side}-arm recording, but the model is of the {arm.side} arm")
+    if len(rec) < MIN_RECORDING_SAMPLES or rec.duration_s < MIN_RECORDING_S:
+        raise DiagnosisError(
+            f"{label}: {len(rec)} samples over {rec.duration_s:.2f} s; the diagnosis needs at least "
+            f"{MIN_RECORDING_SAMPLES} samples and {MIN_RECORDING_S:g} s per recording"
+        )
+
+
+def _short(names: Sequence[str]) -> str:
+    return ", ".join(n.split("_", 1)[-1] for n in names)
+
+
+def _rms(sse: np.ndarray, n: int) -> np.ndarray:
+    return np.sqrt(np.maximum(sse, 0.0) / n)
+
+
+def _effect_of(cand: Candidate, values: np.ndarray, phi: np.ndarray | None) -> Effect:
+    """The effect of a fitted candidate: values its full parameter vector (per-joint: 7 per
+    parameter, zero where it does not act), phi the payload's log-Cholesky coordinates."""
+    t = cand.template
+    if isinstance(t, TorqueOffset):
+        return TorqueOffset(offset_nm=values)
+    if isinstance(t, ViscousFriction):
+        return ViscousFriction(damping_nm_s_rad=values)
+    if isinstance(t, CoulombFriction):
+        return CoulombFriction(friction_nm=values, smoothing_rad_s=t.smoothing_rad_s)
+    if isinstance(t, StribeckFriction):
+        return StribeckFriction(coulomb_nm=values[:N], static_nm=values[N:], stribeck_rad_s=t.stribeck_rad_s, smoothing_rad_s=t.smoothing_rad_s)
+    if isinstance(t, Armature):
+        return Armature(inertia_kgm2=values)
+    if isinstance(t, Delay):
+        return Delay(delay_s=values)
+    if isinstance(t, S1Spring):
+        return S1Spring(preload_nm=values[0], cosine_nm=values[1], sine_nm=values[2])
+    if isinstance(t, Payload):
+        m, c, inertia = _inertial_quantities(phi[0])
+        return Payload(mass_kg=m, com_m=c, inertia_kgm2=inertia[[0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]])
+    return InertialError(parameter_change=values)
+
+
+def _inertial_quantities(phi: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """Mass (kg), centre of mass (3,) m and inertia tensor about it (3, 3) kg·m² of one link's φ."""
+    j = pseudo_from_log_cholesky(phi)
+    m = float(j[3, 3])
+    c = j[:3, 3] / m
+    sigma = j[:3, :3] - m * np.outer(c, c)
+    return m, c, np.trace(sigma) * np.eye(3) - sigma
+
+
+#: The physical quantities of a link reported, with the flat index they take in
+#: [m, c (3), inertia about the centre of mass (xx xy xz yy yz zz)].
+_QUANTITY_NAMES = ("mass", "com x", "com y", "com z", "Ixx", "Ixy", "Ixz", "Iyy", "Iyz", "Izz")
+
+
+def _quantity_vector(phi: np.ndarray) -> np.ndarray:
+    m, c, inertia = _inertial_quantities(phi)
+    return np.concatenate([[m], c, inertia[[0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]]])
+
+
+def _link_report(name: str, phi: np.ndarray, cov: np.ndarray, prior_std: np.ndarray, before: tuple | None) -> dict:
+    """One link's (or the payload's) inertials after the fit, their SD, and what the data decided.
+
+    A quantity is *decided by the data* when its posterior variance is less than half its prior
+    variance (linearised at the fit); the others are set by the prior (the paper's values).
+    """
+    value = _quantity_vector(phi)
+    jac = np.empty((10, 10))
+    for k in range(10):
+        step = np.zeros(10)
+        step[k] = 1e-6
+        jac[:, k] = (_quantity_vector(phi + step) - _quantity_vector(phi - step)) / 2e-6
+    post = np.diag(jac @ cov @ jac.T)
+    prior = np.diag(jac @ np.diag(prior_std**2) @ jac.T)
+    undecided = [q for q, a, b in zip(_QUANTITY_NAMES, post, prior) if b > 0 and a > 0.5 * b]
+    out = {
+        "link": name,
+        "mass_kg": float(value[0]),
+        "com_m": value[1:4].tolist(),
+        "inertia_about_com_kgm2": value[4:].tolist(),
+        "std": dict(zip(_QUANTITY_NAMES, np.sqrt(np.maximum(post, 0.0)).tolist())),
+        "set_by_prior": undecided,
+    }
+    if before is not None:
+        m, c, inertia = before
+        out["before"] = {"mass_kg": m, "com_m": list(c), "inertia_about_com_kgm2": inertia[[0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]].tolist()}
+    return out
+
+
 # ----------------------------------------------------------------------------- the procedure
-def _split_blocks(rec: Recording, parts: int) -> list[tuple[int, int]]:
-    edges = np.linspace(0, len(rec), parts + 1).astype(int)
-    return [(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
+@dataclass
+class _Context:
+    arm: ArmModel
+    layout: ColumnLayout
+    pool: Pool
+    test: Pool
+    fitter: Fitter  # of the final model's weights, exact
 
+    def evaluate(self, model: Model) -> tuple[np.ndarray, Fit, list[Fit]]:
+        cv, folds, _ = self.fitter.cv_sse(model)
+        return cv, self.fitter.fit(model), folds
 
-def _choose_cutoff(arm: ArmModel, train: Sequence[Recording]) -> float:
-    """The cut-off whose filtered rigid residual is smallest on the training data (no fit involved)."""
-    best, best_sse = CUTOFF_GRID_HZ[0], np.inf
-    for cutoff in CUTOFF_GRID_HZ:
-        sse = 0.0
-        for rec in train:
-            if cutoff >= 0.45 * rec.rate_hz:
-                break
-            sse += float(np.sum(_prepare(arm, rec, cutoff).residual ** 2))
-        else:
-            if sse < best_sse:
-                best, best_sse = cutoff, sse
-    return best
+    def test_sse(self, model: Model, fit: Fit) -> np.ndarray:
+        return self.fitter.sse(self.fitter.columns(model), fit.x, self.test.H, self.test.b, self.test.rr)
 
-
-def _param_names(c: _Candidate) -> tuple[str, ...]:
-    return tuple(c.template.parameter_names())
+    def test_rms(self, model: Model) -> np.ndarray:
+        return _rms(self.test_sse(model, self.fitter.fit(model)), self.test.samples)
 
 
 def diagnose(
@@ -505,215 +338,345 @@ def diagnose(
 ) -> DiagnosisResult:
     """Diagnose the gap of ``arm``'s rigid model on recordings: fit on ``train``, measure on ``test``.
 
-    train, test: (label, Recording) pairs of the arm's side. With one training recording, its
-    four contiguous quarters are the cross-validation segments; otherwise each file is one.
+    train, test: (label, Recording) pairs of the arm's side, each at least MIN_RECORDING_SAMPLES
+    samples and MIN_RECORDING_S long. Cross-validation leaves one training recording out; with a
+    single one, one of its four contiguous blocks.
     """
     tick = progress or (lambda _done, _total: None)
     if not train or not test:
         raise DiagnosisError("need at least one training and one test recording")
     for label, rec in (*train, *test):
-        if rec.side != arm.side:
-            raise DiagnosisError(f"{label}: a {rec.side}-arm recording, but the model is of the {arm.side} arm")
-    candidates = _candidates(arm)
-    n_cols = candidates[-1].columns.stop
-    active = _active_columns(arm, candidates, n_cols)
-    cutoff = _choose_cutoff(arm, [r for _, r in train])
+        _check(arm, label, rec)
+    layout = column_layout()
+    active = active_columns(arm, layout)
+    cutoff = choose_cutoff(arm, [r for _, r in train])
+    steps = [0, len(train) + len(test) + 3]
 
-    pieces: list[tuple[str, Recording, int, int]] = []
-    if len(train) == 1:
-        label, rec = train[0]
-        pieces = [(f"{label}[{k + 1}/4]", rec, a, b) for k, (a, b) in enumerate(_split_blocks(rec, 4))]
-    else:
-        pieces = [(label, rec, 0, len(rec)) for label, rec in train]
-
-    def statistics(items: Sequence[tuple[str, Recording, int, int]], world_cutoff: float | None) -> list[_Segment]:
-        out, cache = [], {}
-        for label, rec, a, b in items:
-            if id(rec) not in cache:  # the blocks of a lone training file share its arrays
-                prepared = _prepare(arm, rec, world_cutoff)
-                delay = Delay(delay_s=0.0).regressor(arm, rec.q, rec.qd, prepared.qdd_smooth, stamps_s=prepared.stamps_s)
-                cache[id(rec)] = prepared, delay
-            prepared, delay = cache[id(rec)]
-            out.append(_segment(arm, candidates, active, n_cols, prepared, a, b, label, delay))
+    def blocks_of(items, parts: int) -> list[Block]:
+        out = []
+        for label, rec in items:
+            out += recording_blocks(arm, layout, active, label, prepare(arm, rec, cutoff), parts)
             steps[0] += 1
             tick(*steps)
         return out
 
-    steps = [0, 2 * (len(pieces) + len(test)) + len(CANDIDATE_NAMES)]
-    segments = {"raw": statistics(pieces, None), "filtered": statistics(pieces, cutoff)}
-    tests = {
-        "raw": statistics([(label, rec, 0, len(rec)) for label, rec in test], None),
-        "filtered": statistics([(label, rec, 0, len(rec)) for label, rec in test], cutoff),
-    }
-    n_train = sum(s.samples for s in segments["raw"])
-    duration = sum(s.duration_s for s in segments["raw"])
-    n_eff = max(duration / DECORRELATION_S, 1.0)
+    train_blocks = blocks_of(train, BLOCKS_PER_RECORDING)
+    pool = Pool(train_blocks, default_groups(train_blocks))
+    test_blocks = blocks_of(test, 1)
+    test_pool = Pool(test_blocks, [list(range(len(test_blocks)))])
 
-    def test_rms(model: _Model, theta: np.ndarray) -> np.ndarray:
-        sse = sum(s.sse(model.columns(), theta) for s in tests[model.world])
-        return np.sqrt(sse / sum(s.samples for s in tests[model.world]))
+    selection = select(arm, layout, pool)
+    steps[0] += 1
+    tick(*steps)
+    final = selection.model
+    ctx = _Context(arm, layout, pool, test_pool, selection.fitter)
+    fold_models = [select(arm, layout, pool.sub_pool(g), start=final).model for g in range(len(pool.groups))]
+    steps[0] += 1
+    tick(*steps)
 
-    current = _Model("raw", ())
-    current_cv, _ = _cv_sse(current, segments)
-    remaining = list(candidates) + ["acceleration_noise"]
-    reports: dict[str, EffectReport] = {}
-    rank = 0
-    while remaining:
-        # AIC in squared-error terms: 2 σ̂² per parameter and effective sample (σ̂² = SSE / n_train),
-        # per sample like the gains.
-        penalty_per_param = 2.0 * float(current_cv.sum()) / n_eff / n_train
-        # The inertial priors weigh against the current residual: σ² per joint-sample, times the
-        # samples that make one effective (independent) sample.
-        prior_weight = float(current_cv.sum()) / (N * n_train) * (n_train / n_eff)
-        options = []
-        for cand in remaining:
-            if cand == "acceleration_noise":
-                if current.world == "filtered":
-                    continue
-                trial = _Model("filtered", current.members, prior_weight)
-                name = "acceleration_noise"
-            else:
-                if any(m.name == cand.name for m in current.members) or _nested(cand, current):
-                    continue
-                trial = _Model(current.world, current.members + (cand,), prior_weight)
-                name = cand.name
-            cv, fits = _cv_sse(trial, segments)
-            gain = float(current_cv.sum() - cv.sum()) / n_train  # N·m² per sample
-            extra = trial.n_params(segments[trial.world]) - current.n_params(segments[current.world])
-            net = gain - penalty_per_param * extra
-            joint_gain = (current_cv - cv) / np.maximum(current_cv, 1e-300)
-            rms_gain = np.sqrt(current_cv / n_train) - np.sqrt(np.maximum(cv, 0.0) / n_train)
-            joint_gain = np.where(rms_gain >= MIN_JOINT_GAIN_NM, joint_gain, 0.0)
-            reason = ""
-            if cand != "acceleration_noise":
-                theta_all = _fit(segments[trial.world], trial)
-                reason = _plausibility(cand, trial.split(theta_all)[-1], arm)
-            options.append((net, gain, name, cand, trial, cv, fits, joint_gain, reason))
-        if not options:
-            break
-        options.sort(key=lambda o: -o[0])
-        chosen = None
-        for opt in options:
-            net, gain, name, cand, trial, cv, fits, joint_gain, reason = opt
-            if reason or net <= 0 or joint_gain.max() < MIN_JOINT_GAIN:
-                continue
-            chosen = opt
-            break
-        if chosen is None:
-            for opt in options:
-                net, gain, name, cand, trial, cv, fits, joint_gain, reason = opt
-                if name in reports:
-                    continue
-                why = reason or (
-                    "does not improve the held-out error after the complexity penalty"
-                    if net <= 0
-                    else f"improves no joint's held-out error by {MIN_JOINT_GAIN:.0%} and {MIN_JOINT_GAIN_NM:g} N·m RMS"
-                )
-                reports[name] = _unselected_report(arm, cand, name, why, gain, trial, segments, current, test_rms)
-            break
-        net, gain, name, cand, trial, cv, fits, joint_gain, reason = chosen
-        rank += 1
-        theta_before = _fit(segments[current.world], current)
-        before = test_rms(current, theta_before)
-        theta = _fit(segments[trial.world], trial)
-        after = test_rms(trial, theta)
-        joints = tuple(arm.joint_names[j] for j in np.flatnonzero(joint_gain >= MIN_JOINT_GAIN))
-        if cand == "acceleration_noise":
-            reports[name] = EffectReport(
-                name, f"zero-phase low-pass {cutoff:g} Hz", True, rank,
-                f"held-out gain {gain:.4g} N·m² per sample (filtering q̇ before differentiating)", {"cutoff_hz": cutoff}, {}, joints, gain, before, after, None, cutoff,
-            )
-            remaining.remove("acceleration_noise")
-        else:
-            reports[name] = EffectReport(
-                name, cand.variant, True, rank, f"held-out gain {gain:.4g} N·m² per sample", {}, {}, joints, gain, before, after
-            )
-            remaining = [r for r in remaining if r == "acceleration_noise" or r.name != cand.name]
-        current, current_cv = trial, cv
-        steps[0] += 1
-        tick(*steps)
+    reports = _selected_reports(ctx, selection.evaluation, fold_models)
+    reports.append(_noise_report(ctx, cutoff))
+    reports += _unselected_reports(ctx, selection.evaluation, {r.name for r in reports if r.selected})
+    reports = _cumulative(ctx, final, reports)
+    ordered = sorted(reports, key=lambda e: (not e.selected, -(e.share if e.selected else e.cv_gain)))
+    ranked = tuple(replace(e, rank=i + 1) for i, e in enumerate(ordered))
 
+    n_train, n_test = pool.samples, test_pool.samples
+    final_rms = ctx.test_rms(final)
+    gap, gap_filtered, series = _test_gap(ctx, test, cutoff, final)
     tick(steps[1], steps[1])
-    theta_final = _fit(segments[current.world], current)
-    _, final_folds = _cv_sse(current, segments)
-    for cand, own, folds in zip(current.members, current.split(theta_final), zip(*[current.split(f) for f in final_folds])):
-        reports[cand.name] = _with_final_parameters(reports[cand.name], cand, own, np.array(folds))
-    final = test_rms(current, theta_final)
-    baseline_test = test_rms(_Model("raw", ()), np.zeros(0))
-    baseline_train = np.sqrt(sum(s.rr for s in segments["raw"]) / n_train)
-    for name in ("acceleration_noise", *dict.fromkeys(c.name for c in candidates)):
-        if name not in reports:
-            reports[name] = EffectReport(name, "", False, 0, "not tried: nested in a selected effect", {}, {}, (), 0.0, final, final)
-    ordered = sorted(reports.values(), key=lambda e: (not e.selected, e.rank if e.selected else -e.cv_gain))
-    ranked = tuple(dataclasses.replace(e, rank=i + 1) for i, e in enumerate(ordered))
-    gap, gap_filtered, series = _test_gap(arm, test, cutoff, current, theta_final, candidates)
+    holdout = "leave one training recording out" if len(train) > 1 else f"{BLOCKS_PER_RECORDING} contiguous blocks of the training recording, one left out at a time"
     return DiagnosisResult(
-        arm.side, tuple(arm.joint_names), tuple(l for l, _ in train), tuple(l for l, _ in test),
-        "leave one training file out" if len(train) > 1 else "four contiguous blocks of the training file",
-        cutoff, baseline_train, baseline_test, final, ranked, gap, gap_filtered, series,
+        arm.side, tuple(arm.joint_names), tuple(l for l, _ in train), tuple(l for l, _ in test), holdout, len(pool.groups), cutoff,
+        _rms(pool.rr_raw, n_train), _rms(test_pool.rr_raw, n_test), _rms(test_pool.rr, n_test), final_rms,
+        ranked, gap, gap_filtered, selection.moves, series,
+    )  # fmt: skip
+
+
+def _term_values(ctx: _Context, model: Model, fit: Fit, term: Term) -> tuple[np.ndarray, np.ndarray]:
+    """(values, positions): the candidate's full parameter vector (zeros off its joints) from a fit,
+    and for each entry its position in the fit's x (−1 where it does not act)."""
+    cand = ctx.layout.candidates[term.candidate]
+    index = model.terms.index(term)
+    where = ctx.fitter.positions(model)[term]
+    cols = ctx.fitter.term_columns(model)[index]
+    values = np.zeros(len(cand.columns))
+    position = np.full(len(cand.columns), -1)
+    local = {int(c): k for k, c in enumerate(cand.columns)}
+    for p, col in zip(where, cols):
+        values[local[int(col)]] = fit.x[p]
+        position[local[int(col)]] = p
+    return values, position
+
+
+def _spread(fit: Fit, folds: list[Fit], positions: np.ndarray) -> np.ndarray:
+    """SD of the parameters at positions: fit covariance plus the jackknife spread of the folds."""
+    var = np.diag(fit.cov_x)[positions].copy()
+    if len(folds) > 1:
+        xs = np.array([f.x[positions] for f in folds])
+        k = len(folds)
+        var += (k - 1) / k * np.sum((xs - xs.mean(axis=0)) ** 2, axis=0)
+    return np.sqrt(var)
+
+
+def _selected_reports(ctx: _Context, ev: Evaluation, fold_models: list[Model]) -> list[EffectReport]:
+    """Reports of the selected effects: parameters, drop-one gains, stability, verdict, drift."""
+    final = ev.model
+    n = ctx.pool.samples
+    out = []
+    final_test = ctx.test_rms(final)
+    for term in final.terms:
+        cand = ctx.layout.candidates[term.candidate]
+        values, position = _term_values(ctx, final, ev.fit, term)
+        names = cand.template.parameter_names()
+        acting = position >= 0
+        std = np.zeros(len(values))
+        std[acting] = _spread(ev.fit, ev.folds, position[acting])
+        phi = ev.fit.phi.get(term.candidate)
+        effect = _effect_of(cand, values, phi)
+        params = {k: float(v) for k, v in zip(names, values)}
+        params_std = {k: float(s) for k, s, a in zip(names, std, acting) if a}
+        inertial = None
+        if cand.kind == "inertial":
+            params, params_std, inertial = _inertial_params(ctx, cand, term, ev.fit)
+        without = final.without(term.candidate)
+        cv_without, _, _ = ctx.evaluate(without)
+        gain = float(np.sum(cv_without - ev.cv)) / n
+        test_without = ctx.test_rms(without)
+        joints = tuple(ctx.arm.joint_names[j] for j in term.joints)
+        verdict = {name: _verdict(test_without[j], final_test[j]) for j, name in enumerate(ctx.arm.joint_names) if name in joints}
+        counts = [fm.term(term.candidate) for fm in fold_models]
+        same_effect = [next((t for t in fm.terms if ctx.layout.candidates[t.candidate].name == cand.name), None) for fm in fold_models]
+        folds_selected = sum(t is not None for t in same_effect)
+        joint_folds = {}
+        if cand.kind == "joint":
+            joint_folds = {ctx.arm.joint_names[j]: sum(t is not None and j in t.joints for t in same_effect) for j in term.joints}
+        del counts
+        drift = _offset_drift(ctx, final, ev.fit, term) if cand.name == "torque_offset" else None
+        reason = f"removes {gain:.4g} N·m² per sample of held-out error (cross-validated); at {_short(joints)}"
+        if drift is not None and drift["drifting"]:
+            reason += f"; drifts between recordings at {_short(drift['drifting'])} (see drift)"
+        out.append(
+            EffectReport(
+                cand.name, cand.variant, True, 0, reason, params, params_std, joints, gain, final_test, final_test, effect,
+                folds_selected=folds_selected, folds=len(fold_models), joint_folds=joint_folds, test_verdict=verdict,
+                drift=drift, inertial=inertial,
+            )  # fmt: skip
+        )
+    return out
+
+
+def _verdict(without: float, with_: float) -> dict:
+    change = (with_ - without) / max(without, 1e-300)
+    word = "helped" if change < -VERDICT_TOLERANCE else ("hurt" if change > VERDICT_TOLERANCE else "no change")
+    return {"verdict": word, "rms_without": float(without), "rms_with": float(with_)}
+
+
+def _inertial_params(ctx: _Context, cand: Candidate, term: Term, fit: Fit) -> tuple[dict, dict, list[dict]]:
+    """Payload / inertial change: physical parameters, their SD and the per-link report."""
+    phi = fit.phi[term.candidate]
+    cov = fit.phi_cov[term.candidate]
+    setup = ctx.fitter.link_setup(cand)
+    prior_std = setup[1]
+    links = []
+    if cand.name == "payload":
+        rep = _link_report("payload", phi[0], cov, prior_std[0], None)
+        params = {"mass_kg": rep["mass_kg"], **{f"com_m[{a}]": v for a, v in zip("xyz", rep["com_m"])}}
+        params.update({f"inertia_kgm2[{q}]": v for q, v in zip(("xx", "xy", "xz", "yy", "yz", "zz"), rep["inertia_about_com_kgm2"])})
+        std = dict(zip(params, rep["std"].values()))
+        return params, std, [rep]
+    params, std = {}, {}
+    for i, link_index in enumerate(cand.links):
+        link = ctx.arm.links[link_index]
+        j0 = pseudo_inertia(link)
+        m0 = float(j0[3, 3])
+        before = (m0, link.com_m, link.inertia_kgm2)
+        rep = _link_report(f"link {link_index + 1} ({link.name})", phi[i], cov[10 * i : 10 * i + 10, 10 * i : 10 * i + 10], prior_std[i], before)
+        moved = abs(rep["mass_kg"] - m0) > 2 * rep["std"]["mass"] or np.any(
+            np.abs(np.array(rep["com_m"]) - link.com_m) > 2 * np.array([rep["std"]["com x"], rep["std"]["com y"], rep["std"]["com z"]])
+        )
+        rep["changed"] = bool(moved)
+        links.append(rep)
+        params[f"link{link_index + 1}.mass_kg"] = rep["mass_kg"]
+        std[f"link{link_index + 1}.mass_kg"] = rep["std"]["mass"]
+        for a, v, s in zip("xyz", rep["com_m"], ("com x", "com y", "com z")):
+            params[f"link{link_index + 1}.com_m[{a}]"] = v
+            std[f"link{link_index + 1}.com_m[{a}]"] = rep["std"][s]
+    return params, std, links
+
+
+def _offset_drift(ctx: _Context, model: Model, fit: Fit, term: Term) -> dict:
+    """Each training recording's own offsets (fitted as such: ``Fitter`` profiles them out), their
+    spread, and the joints where the spread exceeds twice the uncertainty of one recording's own
+    offset (its residual level over its effective samples) and 0.01 N·m.
+
+    The test recordings' own offsets (the other parameters held at the fit) are listed too, as a
+    held-out check; they change nothing."""
+    cols = ctx.fitter.columns(model)
+    where = ctx.fitter.positions(model)[term]
+    joints = [j for j in term.joints if ctx.layout.candidates[term.candidate].columns[j] in cols[where]]
+    others = np.array([k for k in range(len(cols)) if k not in set(where.tolist())], dtype=int)
+    test_offsets = {}
+    for blk in ctx.test.blocks:
+        test_offsets[blk.recording] = [
+            float((blk.b[j, cols[p]] - blk.H[j, cols[p], cols[others]] @ fit.x[others]) / blk.H[j, cols[p], cols[p]]) for j, p in zip(joints, where)
+        ]
+    values = np.array(list(fit.offsets.values()))
+    spread = values.std(axis=0, ddof=1) if len(values) > 1 else np.full(len(joints), np.nan)
+    # How well one recording fixes its own offset: its residual level over its effective samples.
+    samples = np.array([rec[0][0, cols[where[0]], cols[where[0]]] for rec in ctx.pool.recording_sums(None)])
+    within = np.sqrt(np.mean(ctx.fitter.lam / np.outer(samples, ctx.fitter.weights[joints]), axis=0))
+    names = [ctx.arm.joint_names[j] for j in joints]
+    drifting = [n for n, s, u in zip(names, spread, within) if np.isfinite(s) and s > max(2 * u, 0.01)]
+    return {
+        "joints": names,
+        "constant_nm": fit.x[where].tolist(),
+        "per_recording_nm": {k: v.tolist() for k, v in fit.offsets.items()},
+        "spread_nm": [None if not np.isfinite(s) else float(s) for s in spread],
+        "test_recordings_nm": test_offsets,
+        "drifting": drifting,
+        "note": "one training recording: drift between recordings cannot be measured" if len(values) < 2 else "",
+    }
+
+
+def _noise_report(ctx: _Context, cutoff: float) -> EffectReport:
+    """acceleration_noise: the share of the gap that the zero-phase filter of q̇ alone removes."""
+    pool = ctx.pool
+    n = pool.samples
+    gain_joint = (pool.rr_raw - pool.rr) / n
+    gain = float(gain_joint.sum())
+    ok = _gain_ok(pool.rr_raw, pool.rr, n)
+    joints = tuple(ctx.arm.joint_names[j] for j in np.flatnonzero(ok))
+    votes = sum(bool(_gain_ok(pool.group_rr_raw[g], pool.group_rr[g], pool.group_samples[g]).any()) for g in range(len(pool.groups)))
+    raw_test = _rms(ctx.test.rr_raw, ctx.test.samples)
+    den_test = _rms(ctx.test.rr, ctx.test.samples)
+    verdict = {name: _verdict(raw_test[j], den_test[j]) for j, name in enumerate(ctx.arm.joint_names)}
+    selected = bool(ok.any())
+    reason = (
+        f"filtering q̇ at {cutoff:g} Hz before differentiating removes {gain:.4g} N·m² per sample of the training residual (no fit)"
+        if selected
+        else f"filtering q̇ removes no joint's error by {MIN_JOINT_GAIN:.0%} and {MIN_JOINT_GAIN_NM:g} N·m RMS"
     )
+    return EffectReport(
+        "acceleration_noise", f"zero-phase low-pass {cutoff:g} Hz", selected, 0, reason, {"cutoff_hz": cutoff}, {}, joints, gain,
+        raw_test, den_test, None, cutoff, folds_selected=votes if selected else 0, folds=len(pool.groups), test_verdict=verdict,
+        share=gain,
+    )  # fmt: skip
 
 
-def _with_final_parameters(report: EffectReport, cand: _Candidate, own: np.ndarray, folds: np.ndarray) -> EffectReport:
-    """The report with the parameters of the final fit on all training data, their jackknife
-    standard deviation across the cross-validation folds, and the effect they make."""
-    k = len(folds)
-    std = np.sqrt((k - 1) / k * np.sum((folds - folds.mean(axis=0)) ** 2, axis=0)) if k > 1 else np.full(len(own), np.nan)
-    names = _param_names(cand)
-    try:
-        effect = cand.build(own)
-    except DiagnosisError:  # a fit with no effect form (see the candidate's builder)
-        effect = None
-    return dataclasses.replace(
-        report,
-        params={n: float(v) for n, v in zip(names, own)},
-        params_std={n: float(v) for n, v in zip(names, std)},
-        effect=effect,
-    )
+def _gain_ok(before: np.ndarray, after: np.ndarray, n: int) -> np.ndarray:
+    rel = (before - after) / np.maximum(before, 1e-300)
+    return (rel >= MIN_JOINT_GAIN) & (_rms(before, n) - _rms(after, n) >= MIN_JOINT_GAIN_NM)
 
 
-def _nested(cand: _Candidate, current: _Model) -> bool:
-    """Friction laws contain each other; a payload is part of the inertial change."""
-    have = {m.name for m in current.members}
-    families = ({"coulomb_friction", "stribeck_friction"}, {"payload", "inertial_error"})
-    return any(cand.name in fam and have & (fam - {cand.name}) for fam in families)
+def _unselected_reports(ctx: _Context, ev: Evaluation, selected_names: set[str]) -> list[EffectReport]:
+    """Every candidate not selected: what adding it (its best variant) to the selected set would do."""
+    from .diagnosis_selection import explain_unselected
+
+    out = []
+    n = ctx.pool.samples
+    final_test = ctx.test_rms(ev.model)
+    for name, (variant, trial, why) in explain_unselected(ctx.arm, ctx.layout, ctx.pool, ev, ctx.fitter).items():
+        if name in selected_names:
+            continue
+        if trial is None:
+            out.append(EffectReport(name, variant, False, 0, why, {}, {}, (), 0.0, final_test, final_test))
+            continue
+        gain = float(np.sum(ev.cv - trial.cv)) / n
+        after = ctx.test_rms(trial.model)
+        out.append(EffectReport(name, variant, False, 0, why, {}, {}, (), gain, final_test, after))
+    return out
 
 
-def _unselected_report(arm, cand, name, why, gain, trial, segments, current, test_rms) -> EffectReport:
-    theta_before = _fit(segments[current.world], current)
-    before = test_rms(current, theta_before)
-    theta = _fit(segments[trial.world], trial)
-    after = test_rms(trial, theta)
-    params: dict[str, float] = {}
-    variant = ""
-    if cand != "acceleration_noise":
-        params = {n: float(v) for n, v in zip(_param_names(cand), trial.split(theta)[-1])}
-        variant = cand.variant
-    return EffectReport(name, variant, False, 0, why, params, {}, (), gain, before, after)
+#: Above this many selected physical effects, Shapley shares are estimated from random orders.
+EXACT_SHAPLEY_MAX = 8
+SHAPLEY_ORDERS = 64
 
 
-def _test_gap(arm, test, cutoff, model, theta, candidates):
+def _shapley(ctx: _Context, final: Model) -> dict[int, float]:
+    """Shapley share (N·m² per sample) of each selected term in the training residual's fall
+    (subsets fitted quickly: a few Newton steps from the final fit's inertials)."""
+    terms = list(final.terms)
+    n = ctx.pool.samples
+    values: dict[frozenset[int], float] = {}
+    quick = ctx.fitter.with_weights(ctx.fitter.weights, quick=True)  # subsets start at the final fit
+
+    def value(subset: frozenset[int]) -> float:
+        if subset not in values:
+            model = Model.of([terms[i] for i in subset])
+            fit = quick.fit(model)
+            sse = quick.sse(quick.columns(model), fit.x, ctx.pool.H, ctx.pool.b, ctx.pool.rr)
+            values[subset] = float(np.sum(ctx.pool.rr - sse)) / n
+        return values[subset]
+
+    k = len(terms)
+    share = {t.candidate: 0.0 for t in terms}
+    if k <= EXACT_SHAPLEY_MAX:
+        from itertools import combinations
+        from math import factorial
+
+        for i, t in enumerate(terms):
+            others = [o for o in range(k) if o != i]
+            for size in range(k):
+                w = factorial(size) * factorial(k - size - 1) / factorial(k)
+                for subset in combinations(others, size):
+                    base = frozenset(subset)
+                    share[t.candidate] += w * (value(base | {i}) - value(base))
+        return share
+    rng = np.random.default_rng(0)
+    for _ in range(SHAPLEY_ORDERS):
+        order = rng.permutation(k)
+        have: frozenset[int] = frozenset()
+        for i in order:
+            share[terms[i].candidate] += (value(have | {int(i)}) - value(have)) / SHAPLEY_ORDERS
+            have = have | {int(i)}
+    return share
+
+
+def _cumulative(ctx: _Context, final: Model, reports: list[EffectReport]) -> list[EffectReport]:
+    """Shapley shares, and test_rms_before/after of the selected effects added one by one: the q̈
+    filter first, then the physical effects by their share (each set refitted on the training data)."""
+    terms = {ctx.layout.candidates[t.candidate].name: t for t in final.terms}
+    shares = _shapley(ctx, final)
+    reports = [replace(r, share=shares[terms[r.name].candidate]) if r.selected and r.name in terms else r for r in reports]
+    chosen = sorted((r for r in reports if r.selected and r.name != "acceleration_noise"), key=lambda r: -r.share)
+    noise = next(r for r in reports if r.name == "acceleration_noise")
+    before = noise.test_rms_after  # the denoised rigid model
+    have: list[Term] = []
+    updated = {noise.name: noise}
+    for r in chosen:
+        have.append(terms[r.name])
+        after = ctx.test_rms(Model.of(have))
+        updated[r.name] = replace(r, test_rms_before=before, test_rms_after=after)
+        before = after
+    return [updated.get(r.name, r) if r.selected else r for r in reports]
+
+
+def _test_gap(ctx: _Context, test: Sequence[tuple[str, Recording]], cutoff: float, final: Model):
     """Gap summaries of the test data and the residual series before/after the selected effects."""
-    raws, filts, finals, times, offset = [], [], [], [], 0.0
-    states = []
+    fit = ctx.fitter.fit(final)
+    cols = ctx.fitter.columns(final)
+    raws, filts, finals, times, states = [], [], [], [], []
+    offset = 0.0
     for _, rec in test:
-        raw = _prepare(arm, rec, None)
-        chosen = _prepare(arm, rec, cutoff if model.world == "filtered" else None)
-        delay = Delay(delay_s=0.0).regressor(arm, rec.q, rec.qd, raw.qdd_smooth, stamps_s=raw.stamps_s)
+        p = prepare(ctx.arm, rec, cutoff)
         explained = np.zeros_like(rec.q)
-        if len(theta):
-            phi = np.concatenate([_regressor(arm, candidates, chosen, a, min(len(rec), a + CHUNK), delay)[:, :, model.columns()] for a in range(0, len(rec), CHUNK)])
-            explained = phi @ theta
-        raws.append(raw.residual)
-        filts.append(_prepare(arm, rec, cutoff).residual)
-        finals.append(chosen.residual - explained)
-        times.append(raw.stamps_s + offset)
+        if len(cols):
+            for a in range(0, len(rec), 8192):
+                b = min(len(rec), a + 8192)
+                explained[a:b] = regressor(ctx.arm, ctx.layout, p, a, b)[:, :, cols] @ fit.x
+        raws.append(p.residual_raw)
+        filts.append(p.residual)
+        finals.append(p.residual - explained)
+        times.append(p.stamps_s + offset)
         offset = times[-1][-1] + 1.0 / rec.rate_hz
-        states.append((rec.q, rec.qd, raw.qdd, raw.qdd_smooth))
-    cat = lambda xs: np.concatenate(xs)  # noqa: E731
-    q, qd, qdd, qdd_smooth = (cat([s[k] for s in states]) for k in range(4))
+        from .acceleration import zero_phase_acceleration
+
+        states.append((rec.q, rec.qd, zero_phase_acceleration(rec.qd, rec.rate_hz, min(5.0, 0.4 * rec.rate_hz))))
+    cat = np.concatenate
+    q, qd, qdd = (cat([s[k] for s in states]) for k in range(3))
     rate = test[0][1].rate_hz
-    gap = summarise_gap(arm.joint_names, cat(raws), q, qd, qdd_smooth, rate)
-    gap_filtered = summarise_gap(arm.joint_names, cat(filts), q, qd, qdd_smooth, rate)
+    gap = summarise_gap(ctx.arm.joint_names, cat(raws), q, qd, qdd, rate)
+    gap_filtered = summarise_gap(ctx.arm.joint_names, cat(filts), q, qd, qdd, rate)
     series = {"t_s": cat(times), "baseline": cat(raws), "filtered": cat(filts), "final": cat(finals), "q": q}
     return gap, gap_filtered, series

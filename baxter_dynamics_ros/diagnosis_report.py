@@ -15,10 +15,10 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .diagnosis import DiagnosisResult
+from .diagnosis import STABLE_FRACTION, DiagnosisResult
 from .effects import effects_to_dict
 
-__all__ = ["write_diagnosis"]
+__all__ = ["effects_yaml", "write_diagnosis"]
 
 #: Parameters listed per effect in the report's table (all are in diagnosis.json).
 MAX_PARAMS_SHOWN = 8
@@ -87,9 +87,8 @@ def _plot_before_after(result: DiagnosisResult, path: Path) -> None:
 
     joints = _short(result.joint_names)
     x = np.arange(len(joints))
-    steps = [("rigid model (raw q̈)", result.baseline_test_rms)] + [
-        (f"+ {e.name}", e.test_rms_after) for e in result.selected()
-    ]
+    ordered = [e for e in result.selected() if e.name == "acceleration_noise"] + [e for e in result.selected() if e.name != "acceleration_noise"]
+    steps = [("rigid model (raw q̈)", result.baseline_test_rms)] + [(f"+ {e.name}", e.test_rms_after) for e in ordered]
     fig, ax = plt.subplots(figsize=(11, 4))
     width = 0.8 / len(steps)
     for k, (label, rms) in enumerate(steps):
@@ -116,9 +115,67 @@ def _table(head: list[str], rows: list[list[str]]) -> str:
     return f"<table><thead><tr>{th}</tr></thead><tbody>{body}</tbody></table>"
 
 
+def _fmt_params(e) -> str:
+    fitted = [(k, v) for k, v in e.params.items() if abs(v) > 0] if e.selected else []
+    # The inertial change's many parameters: the largest here, all of them in diagnosis.json.
+    shown = sorted(fitted, key=lambda kv: -abs(kv[1]))[:MAX_PARAMS_SHOWN] if len(fitted) > MAX_PARAMS_SHOWN else fitted
+    text = ", ".join(
+        f"{k} = {v:.4g}" + (f" ± {e.params_std[k]:.2g}" if k in e.params_std and np.isfinite(e.params_std[k]) else "") for k, v in shown
+    )
+    return (text + (", … (all in diagnosis.json)" if len(shown) < len(fitted) else "")) or "—"
+
+
+def _inertial_section(result: DiagnosisResult) -> str:
+    rows = []
+    for e in result.selected():
+        for link in e.inertial or []:
+            before = link.get("before")
+            com = ", ".join(f"{v:+.4f}" for v in link["com_m"])
+            inertia = ", ".join(f"{v:.2e}" for v in link["inertia_about_com_kgm2"])
+            rows.append(
+                [
+                    e.name,
+                    link["link"],
+                    (f"{before['mass_kg']:.3f} → " if before else "") + f"{link['mass_kg']:.3f} ± {link['std']['mass']:.2g}",
+                    (("(" + ", ".join(f"{v:+.4f}" for v in before["com_m"]) + ") → ") if before else "") + f"({com})",
+                    (("(" + ", ".join(f"{v:.2e}" for v in before["inertia_about_com_kgm2"]) + ") → ") if before else "") + f"({inertia})",
+                    ", ".join(link["set_by_prior"]) or "none",
+                ]
+            )
+    if not rows:
+        return ""
+    table = _table(["effect", "link", "mass [kg]", "centre of mass [m] (DH frame)", "inertia about the centre of mass [kg·m²] (xx xy xz yy yz zz)", "not decided by the data (set by the prior)"], rows)
+    return (
+        "<h2>Inertials fitted inside the physical set</h2><p>Each link's pseudo-inertia stays positive definite; masses stay "
+        "within 50–150 % and centres of mass within 5 cm of the paper's values (a payload within its box at the flange). "
+        "A quantity whose fitted variance is more than half its prior variance was not decided by the data: "
+        "it stays near the paper's value (or the payload prior's).</p>" + table
+    )
+
+
+def _drift_section(result: DiagnosisResult, joints: list[str]) -> str:
+    offset = next((e for e in result.selected() if e.name == "torque_offset" and e.drift), None)
+    if offset is None:
+        return ""
+    d = offset.drift
+    names = [j.split("_", 1)[-1] for j in d["joints"]]
+    rows = [["one constant (fitted on all training data)"] + [f"{v:+.3f}" for v in d["constant_nm"]]]
+    rows += [[f"training: {name}"] + [f"{v:+.3f}" for v in vals] for name, vals in d["per_recording_nm"].items()]
+    rows += [["spread (SD) across training recordings"] + ["—" if v is None else f"{v:.3f}" for v in d["spread_nm"]]]
+    rows += [[f"test (held out): {name}"] + [f"{v:+.3f}" for v in vals] for name, vals in d["test_recordings_nm"].items()]
+    drifting = ", ".join(j.split("_", 1)[-1] for j in d["drifting"])
+    text = (
+        f"<p><b>The offset drifts between recordings at {html.escape(drifting)}</b>: each recording has its own; the constant in "
+        "effects.yaml is their fit over all training data, not a property of the robot.</p>"
+        if d["drifting"]
+        else "<p>The offsets agree across the training recordings (within twice their uncertainty and 0.01 N·m).</p>"
+    )
+    return "<h2>Sensor offsets per recording [N·m]</h2>" + (f"<p>{html.escape(d['note'])}</p>" if d["note"] else "") + text + _table(["recording", *names], rows)
+
+
 def _html(result: DiagnosisResult, plots: dict[str, Path]) -> str:
     joints = _short(result.joint_names)
-    base, final = result.baseline_test_rms, result.final_test_rms
+    base, den, final = result.baseline_test_rms, result.denoised_test_rms, result.final_test_rms
     gap = result.gap
     where = _table(
         ["joint", "RMS [N·m]", "mean [N·m]", "share of gap", "systematic (< 2 Hz) RMS", "high-frequency RMS", "RMS with filtered q̈"],
@@ -129,29 +186,52 @@ def _html(result: DiagnosisResult, plots: dict[str, Path]) -> str:
     )
     effect_rows = []
     for e in result.effects:
-        fitted = [(k, v) for k, v in e.params.items() if abs(v) > 0] if e.selected else []
-        # The 70 inertial parameters: the largest changes here, all of them in diagnosis.json.
-        shown = sorted(fitted, key=lambda kv: -abs(kv[1]))[:MAX_PARAMS_SHOWN] if len(fitted) > MAX_PARAMS_SHOWN else fitted
-        params = ", ".join(
-            f"{k} = {v:.4g}" + (f" ± {e.params_std[k]:.2g}" if k in e.params_std and np.isfinite(e.params_std[k]) else "")
-            for k, v in shown
-        ) + (", … (all in diagnosis.json)" if len(shown) < len(fitted) else "")
+        stability = f"{e.folds_selected}/{e.folds}" if e.selected else "—"
         effect_rows.append(
-            [str(e.rank), e.name, "yes" if e.selected else "no", e.variant, ", ".join(_short(e.joints)), f"{e.cv_gain:.4g}", params or "—", e.reason]
+            [
+                str(e.rank), e.name, ("yes, uncertain" if e.uncertain else "yes") if e.selected else "no", e.variant, ", ".join(_short(e.joints)),
+                f"{e.share:.4g}" if e.selected else "—", f"{e.cv_gain:.4g}", stability, _fmt_params(e), e.reason,
+            ]  # fmt: skip
         )
-    effects = _table(["rank", "effect", "selected", "variant", "joints", "CV gain [N·m² / sample]", "fitted parameters of the selected (± jackknife SD)", "why"], effect_rows)
-    shrink_rows = [["rigid model, raw q̈"] + [f"{v:.3f}" for v in base] + ["—"]]
+    effects = _table(
+        ["rank", "effect", "selected", "variant", "joints", "share of the gap [N·m² / sample]", "held-out gain [N·m² / sample]", "folds selecting it", "fitted parameters (± SD)", "why"],
+        effect_rows,
+    )
+    shrink_rows = [["rigid model, raw q̈"] + [f"{v:.3f}" for v in base]]
+    steps = [e for e in result.selected() if e.name == "acceleration_noise"] + [e for e in result.selected() if e.name != "acceleration_noise"]
+    for e in steps:
+        shrink_rows.append([f"+ {e.name}"] + [f"{a:.3f} ({(a - b) / b:+.0%})" for a, b in zip(e.test_rms_after, e.test_rms_before)])
+    shrink_rows.append(["final vs rigid model, raw q̈"] + [f"{a:.3f} ({(a - b) / b:+.0%})" for a, b in zip(final, base)])
+    shrink_rows.append(["final vs rigid model, denoised q̈"] + [f"{a:.3f} ({(a - b) / b:+.0%})" for a, b in zip(final, den)])
+    shrink = _table(["model", *joints], shrink_rows)
+    verdict_rows = []
     for e in result.selected():
-        shrink_rows.append([f"+ {e.name}"] + [f"{a:.3f} ({(a - b) / b:+.0%})" for a, b in zip(e.test_rms_after, e.test_rms_before)] + [f"{np.sum(e.test_rms_before**2) - np.sum(e.test_rms_after**2):.4g}"])
-    shrink_rows.append(["final vs rigid model"] + [f"{a:.3f} ({(a - b) / b:+.0%})" for a, b in zip(final, base)] + ["—"])
-    shrink = _table(["model", *joints, "Σ MSE removed [N·m²]"], shrink_rows)
-    style = "body{font-family:sans-serif;max-width:1200px;margin:2em auto;}table{border-collapse:collapse;margin:1em 0;font-size:90%}td,th{border:1px solid #bbb;padding:3px 6px;text-align:right}td:nth-child(2),th{text-align:left}img{max-width:100%}"
+        cells = []
+        for name in result.joint_names:
+            v = e.test_verdict.get(name)
+            cells.append("" if v is None else f"{v['verdict']} ({v['rms_without']:.3f} → {v['rms_with']:.3f})")
+        verdict_rows.append([e.name] + cells)
+    verdicts = _table(["effect (held-out RMS without → with it)", *joints], verdict_rows)
+    style = (
+        "body{font-family:sans-serif;max-width:1300px;margin:2em auto;}table{border-collapse:collapse;margin:1em 0;font-size:90%}"
+        "td,th{border:1px solid #bbb;padding:3px 6px;text-align:right}td:nth-child(2),th{text-align:left}img{max-width:100%}"
+        ".warn{border:2px solid #c00;background:#fee;padding:0.5em 1em}.ok{border:1px solid #393;background:#efe;padding:0.5em 1em}"
+    )
+    warnings = result.warnings()
+    top = (
+        '<div class="warn">' + "".join(f"<p>{html.escape(w)}</p>" for w in warnings) + "</div>"
+        if warnings
+        else '<div class="ok"><p>On the held-out data no joint is worse with the selected effects than with the denoised rigid-body model, '
+        f"and every selected effect was chosen in at least {STABLE_FRACTION:.0%} of the cross-validation folds.</p></div>"
+    )
     files = lambda xs: ", ".join(html.escape(x) for x in xs)  # noqa: E731
+    search = "".join(f"<li>{html.escape(m)}</li>" for m in result.search) or "<li>no move lowered the score</li>"
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>Baxter gap diagnosis</title><style>{style}</style></head><body>
 <h1>Sim-to-real gap diagnosis — {html.escape(result.arm_side)} arm</h1>
-<p>Fitted on: {files(result.train_files)} (cross-validation: {html.escape(result.holdout)}).<br>
-Measured on held-out data: {files(result.test_files)}. No parameter below was fitted on it.</p>
+{top}
+<p>Fitted on: {files(result.train_files)} (cross-validation: {html.escape(result.holdout)}, {result.folds} folds).<br>
+Measured on held-out data: {files(result.test_files)}. No parameter and no selection below used it.</p>
 <h2>Where the gap lies</h2>
 <p>Residual = measured effort − rigid-body model with the paper's q̈ (first difference of q̇), on the test data.
 The systematic part is what a zero-phase 2 Hz low-pass keeps; the rest is noise, mostly of the
@@ -159,15 +239,44 @@ differentiated q̈ (last column: the RMS once q̇ is low-passed at {result.cutof
 {where}
 {_img(plots["regimes.png"], "Residual RMS per joint by motion regime and configuration")}
 <h2>Which effects cause it</h2>
-<p>Forward selection over the candidate effects, each fitted on the training data only and scored
-by cross-validation; ranked by the held-out squared error each removes (mean per sample, summed over joints).</p>
+<p>Noise first: physical effects are fitted with the filtered q̈ only. Stepwise selection with removals and swaps
+between alternatives after every addition, per-joint effects at the joints where they pay, scored by
+cross-validation on the training data. Ranked by the share of the gap each explains (for
+acceleration_noise: what filtering q̇ removes; for the others: their Shapley share of the rest).
+"Folds selecting it": the selection run again on each cross-validation fold's training part;
+fewer than {STABLE_FRACTION:.0%} is <i>uncertain</i>.</p>
 {effects}
+{_inertial_section(result)}
+{_drift_section(result, joints)}
 <h2>How far it shrinks (held-out test data)</h2>
 {shrink}
+<h3>Did each effect help on the test data?</h3>
+<p>Per joint it acts on: the held-out RMS of the selected set without that effect and with it (both fitted on the training data only).</p>
+{verdicts}
 {_img(plots["before_after.png"], "Held-out RMS per joint, before and after each selected effect")}
 {_img(plots["residual_over_time.png"], "Residual over time on the test data")}
+<h2>The search</h2><ol>{search}</ol>
 </body></html>
 """
+
+
+def effects_yaml(result: DiagnosisResult) -> str:
+    """effects.yaml: the selected effects (zero at the joints they do not act on), and beside them
+    the joints each acts on, the uncertain ones, the q̈ filter they were fitted with and drifting offsets."""
+    selected = [e for e in result.selected() if e.effect is not None]
+    drift = next((e.drift for e in selected if e.drift), None)
+    doc = {
+        "arm": result.arm_side,
+        "source": "baxter-dynamics diagnose",
+        "q_ddot": {"estimator": "zero-phase low-pass of q̇, then central differences", "cutoff_hz": result.cutoff_hz},
+        "joints": {e.name: list(e.joints) for e in selected},
+        "uncertain": [e.name for e in selected if e.uncertain],
+        **({"offset_drift": {"joints": drift["drifting"], "per_recording_nm": drift["per_recording_nm"]}} if drift and drift["drifting"] else {}),
+        "effects": effects_to_dict(tuple(e.effect for e in selected)),
+    }
+    return "# Effects identified by `baxter-dynamics diagnose`; load into the node with -p effects_file:=<this file>.\n" + yaml.safe_dump(
+        doc, sort_keys=False, allow_unicode=True
+    )
 
 
 def write_diagnosis(result: DiagnosisResult, out_dir: str | os.PathLike[str]) -> dict[str, Path]:
@@ -176,17 +285,7 @@ def write_diagnosis(result: DiagnosisResult, out_dir: str | os.PathLike[str]) ->
     out.mkdir(parents=True, exist_ok=True)
     paths = {name: out / name for name in OUTPUT_FILES}
     paths["diagnosis.json"].write_text(json.dumps(result.to_dict(), indent=2), encoding="utf-8")
-    exported = tuple(e.effect for e in result.selected() if e.effect is not None)
-    doc = {
-        "arm": result.arm_side,
-        "source": "baxter-dynamics diagnose",
-        "effects": effects_to_dict(exported),
-    }
-    paths["effects.yaml"].write_text(
-        "# Effects identified by `baxter-dynamics diagnose`; load into the node with -p effects_file:=<this file>.\n"
-        + yaml.safe_dump(doc, sort_keys=False),
-        encoding="utf-8",
-    )
+    paths["effects.yaml"].write_text(effects_yaml(result), encoding="utf-8")
     _plot_residuals(result, paths["residual_over_time.png"])
     _plot_regimes(result, paths["regimes.png"])
     _plot_before_after(result, paths["before_after.png"])

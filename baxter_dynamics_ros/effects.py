@@ -101,8 +101,8 @@ def s1_spring_law(q_s1, preload_nm, cosine_nm, sine_nm):
 
 # ----------------------------------------------------------------------------- parameter fields
 def _param(kind: str, default: Any = dataclasses.MISSING, *, minimum: float | None = None, strict: bool = False, fill: float = 0.0):
-    """A dataclass field holding a parameter: kind "joint" (7,), "vector3" (3,), "links" (70,: 10
-    inertial parameters per link) or "scalar".
+    """A dataclass field holding a parameter: kind "joint" (7,), "vector3" (3,), "tensor" (6,: a
+    symmetric 3×3 tensor's xx xy xz yy yz zz), "links" (70,: 10 inertial parameters per link) or "scalar".
 
     minimum: lower bound (exclusive when strict); fill: the value of joints a mapping leaves out.
     """
@@ -122,13 +122,14 @@ def _normalise(value: Any, meta: Mapping[str, Any], where: str) -> float | np.nd
         arr = np.array(value, dtype=np.float64)
     except (TypeError, ValueError) as err:
         raise EffectSpecError(f"{where}: expected numbers, got {value!r}") from err
-    shape = {"joint": (N,), "vector3": (3,), "links": (10 * N,), "scalar": ()}[kind]
+    shape = {"joint": (N,), "vector3": (3,), "tensor": (6,), "links": (10 * N,), "scalar": ()}[kind]
     if kind == "joint" and arr.shape == ():
         arr = np.full(N, float(arr))
     if arr.shape != shape:
         hint = {
             "joint": "a number, a list of 7 or a mapping like {s1: 1.0}",
             "vector3": "a list of 3",
+            "tensor": "a list of 6 (xx, xy, xz, yy, yz, zz)",
             "links": "a list of 70 (10 inertial parameters per link)",
             "scalar": "a number",
         }
@@ -411,10 +412,13 @@ class _InertialChange:
 
 @dataclass(frozen=True, eq=False)
 class Payload(_InertialChange, Effect):
-    """A load held in the hand: a solid box rigidly fixed to the flange (DH frame 7).
+    """A load held in the hand, rigidly fixed to the flange (DH frame 7).
 
     mass_kg; com_m (3,) its centre of mass in the flange frame (z along the w2 axis, away from
-    the arm), m; size_m (3,) the box's edges along the flange axes, m (0 = a point mass).
+    the arm), m; size_m (3,) the edges of a solid box along the flange axes, m (0 = a point mass);
+    inertia_kgm2 (6,: xx xy xz yy yz zz) a further inertia tensor about the centre of mass, kg·m²
+    (what ``diagnose`` fits; added to the box's). The total tensor must be physical (positive
+    semi-definite, each principal moment at most the sum of the other two).
     Its torque is the core's M q̈ + C + G of the load alone; the regressor is the core's
     inertial regressor of link 7 (10 columns, :data:`INERTIAL_PARAMETERS`), linear in the load's.
     """
@@ -423,11 +427,24 @@ class Payload(_InertialChange, Effect):
     mass_kg: float = _param("scalar", minimum=0.0, strict=True)
     com_m: np.ndarray = _param("vector3", (0.0, 0.0, 0.0))
     size_m: np.ndarray = _param("vector3", (0.0, 0.0, 0.0), minimum=0.0)
+    inertia_kgm2: np.ndarray = _param("tensor", (0.0,) * 6)
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        moments = np.linalg.eigvalsh(self.link().inertia_kgm2)
+        tol = 1e-12 + 1e-9 * float(np.max(np.abs(moments)))
+        if moments[0] < -tol or 2.0 * moments[-1] > moments.sum() + tol:
+            raise EffectSpecError(
+                f"payload.inertia_kgm2: the load's tensor about its centre of mass has principal moments "
+                f"{moments.tolist()} kg·m²; a physical body has them >= 0, each at most the sum of the other two"
+            )
 
     def link(self) -> LinkInertial:
-        """The load as a link inertial in the flange frame (box inertia about its centre)."""
+        """The load as a link inertial in the flange frame (box inertia + inertia_kgm2, about its centre)."""
         a, b, c = self.size_m**2
-        inertia = self.mass_kg / 12.0 * np.diag([b + c, a + c, a + b])
+        xx, xy, xz, yy, yz, zz = self.inertia_kgm2
+        extra = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+        inertia = self.mass_kg / 12.0 * np.diag([b + c, a + c, a + b]) + extra
         return LinkInertial(name="payload", mass_kg=self.mass_kg, com_m=np.array(self.com_m), inertia_kgm2=inertia)
 
     def apply_to(self, arm: ArmModel) -> ArmModel:
@@ -505,33 +522,35 @@ class Armature(Effect):
 
 @dataclass(frozen=True, eq=False)
 class Delay(Effect):
-    """The effort is stamped delay_s seconds late: recorded effort(t) = effort(t − delay_s).
+    """Each joint's effort is stamped delay_s (7,) seconds late: recorded effort_j(t) = effort_j(t − d_j).
 
-    Its share, for a time series: τ_rigid(t − d) − τ_rigid(t) (linear interpolation between
-    samples, the first sample held before the start); regressor −dτ_rigid/dt (first order in d).
-    In the simulator the whole transmitted effort is delayed, effects included.
+    A negative d_j is an effort that leads the joint state (the real recordings' effort leads it by
+    about 12 ms). Its share, for a time series: τ_rigid,j(t − d_j) − τ_rigid,j(t) (linear
+    interpolation between samples, the end samples held beyond the ends); regressor −dτ_rigid,j/dt
+    on joint j (first order in d_j). In the simulator each joint's whole transmitted effort is
+    delayed, effects included, causally (d_j ≥ 0 there).
     """
 
     name: ClassVar[str] = "delay"
     measurement: ClassVar[bool] = True
-    delay_s: float = _param("scalar", minimum=0.0)
+    delay_s: np.ndarray = _param("joint")
 
     def torque(self, arm, q, qd, qdd, *, stamps_s=None):
         tau = arm.inverse_dynamics(q, qd, qdd)
         t = _series(stamps_s, tau, self.name)
-        late = np.stack([np.interp(t - self.delay_s, t, tau[:, j]) for j in range(N)], axis=1)
+        late = np.stack([np.interp(t - self.delay_s[j], t, tau[:, j]) for j in range(N)], axis=1)
         return late - tau
 
     def regressor(self, arm, q, qd, qdd, *, stamps_s=None):
         tau = arm.inverse_dynamics(q, qd, qdd)
         t = _series(stamps_s, tau, self.name)
-        return -np.gradient(tau, t, axis=0)[:, :, None]
+        return _diagonal(-np.gradient(tau, t, axis=0))
 
     def parameter_vector(self, arm):
-        return np.array([self.delay_s])
+        return self.delay_s.copy()
 
     def parameter_names(self):
-        return ("delay_s",)
+        return _joint_labels("delay_s")
 
 
 @dataclass(frozen=True, eq=False)

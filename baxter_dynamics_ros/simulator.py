@@ -290,8 +290,11 @@ class SimulationSpec:
             )
         object.__setattr__(self, "physics_rate_hz", float(physics))
         delay = self.effect(Delay)
-        if delay is not None and delay.delay_s > self.settle_s:
-            raise SimulationError(f"delay.delay_s ({delay.delay_s} s) must not exceed settle_s ({self.settle_s} s)")
+        if delay is not None and (np.any(delay.delay_s < 0) or np.any(delay.delay_s > self.settle_s)):
+            raise SimulationError(
+                f"delay.delay_s ({delay.delay_s.tolist()} s) must lie in [0, settle_s = {self.settle_s} s] at every joint: "
+                "the simulator delays the effort causally"
+            )
 
     def effect(self, cls: type[Effect]) -> Any:
         """The spec's effect of class ``cls``, or None."""
@@ -540,7 +543,7 @@ def _run(
     inertia, pi = np.empty((1, N, N)), np.empty(N)
     ki = bandwidth * bandwidth / INTEGRAL_RATIO
     a1, a2, a3, a4 = np.empty((1, N)), np.empty((1, N)), np.empty((1, N)), np.empty((1, N))
-    ring_len = int(delay_steps) + 2
+    ring_len = int(delay_steps.max()) + 2
     ring = np.zeros((ring_len, N))
     n_record = out_q.shape[0]
     total = n_settle + (n_record - 1) * every + 1
@@ -583,10 +586,11 @@ def _run(
             out_tau[k] = tau[0]
             out_qref[k] = qr
             out_ext[k] = ext[0]
-            s = step - delay_steps
-            i0 = int(np.floor(s))
-            frac = s - i0
-            out_tau_late[k] = (1.0 - frac) * ring[i0 % ring_len] + frac * ring[(i0 + 1) % ring_len]
+            for j in range(N):
+                s = step - delay_steps[j]
+                i0 = int(np.floor(s))
+                frac = s - i0
+                out_tau_late[k, j] = (1.0 - frac) * ring[i0 % ring_len, j] + frac * ring[(i0 + 1) % ring_len, j]
         _acceleration(dh, j_true, g, armature, viscous, friction, spring,
                       q + 0.5 * dt * qd, qd + 0.5 * dt * a1, act, a2)  # fmt: skip
         _acceleration(dh, j_true, g, armature, viscous, friction, spring,
@@ -703,7 +707,7 @@ def simulate(spec: SimulationSpec, arm: ArmModel | None = None, reference: Joint
     gains = spec.controller
     _check_stability(arm, plant, gains.inner_bandwidth_rad_s, reference, dt)
     delay = spec.effect(Delay)
-    delay_steps = 0.0 if delay is None else delay.delay_s / dt
+    delay_steps = np.zeros(N) if delay is None else delay.delay_s / dt
     out = {k: np.empty((n, N)) for k in ("q", "qd", "qdd", "tau", "tau_late", "qref")}
     out["ext"] = np.zeros((n, N))
     coll_time, coll_force, coll_torque = _collision_arrays(spec.collisions)

@@ -1,4 +1,10 @@
-"""The gap diagnosis: on the real Baxter recordings, and on simulated ones with withheld effects."""
+"""The gap diagnosis: on the real Baxter recordings, and on simulated ones with withheld effects.
+
+The withheld-effect tests judge the diagnosis by what it writes: effects.yaml is read back and the
+held-out residual recomputed from it and the test recordings alone, with Pinocchio for the rigid
+body (the compensated arm's inertials), scipy for the q̈ filter it names, and the effects' own
+definitions for their shares.
+"""
 
 from __future__ import annotations
 
@@ -7,12 +13,18 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
+import yaml
+from scipy.signal import butter, sosfiltfilt
 
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.diagnosis import CANDIDATE_NAMES, diagnose
-from baxter_dynamics_ros.diagnosis_validation import SCENARIOS, run_scenario
-from baxter_dynamics_ros.effects import load_effects
+from baxter_dynamics_ros.diagnosis_fit import COM_BOX_M, MASS_RANGE, PAYLOAD_COM_BOX_M, PAYLOAD_MASS_KG
+from baxter_dynamics_ros.diagnosis_report import effects_yaml
+from baxter_dynamics_ros.diagnosis_validation import HARD, NO_OP_NM, REQUIRED_SHRINK, SCENARIOS, Scenario, _single, rigid_mse, run_scenario
+from baxter_dynamics_ros.effects import Delay, InertialError, Payload, effects_from_dict, load_effects
+from reference_models import pinocchio_from_arm
 
 REAL = Path(__file__).resolve().parent.parent.parent / "shared" / "data" / "baxter_real"
 REAL_FILES = sorted(REAL.glob("*.csv"))
@@ -28,11 +40,49 @@ def real_recordings():
     return [(p.name, read_recording(p)) for p in REAL_FILES]
 
 
+# ----------------------------------------------------------------------------- an independent judge
+def held_out_from_yaml(text: str, arm, test) -> tuple[float, dict[str, np.ndarray]]:
+    """(MSE per sample summed over joints, each effect's share RMS per joint) of the test recordings
+    with the effects of an effects.yaml text, computed without the diagnosis' own numbers."""
+    doc = yaml.safe_load(text)
+    effects = effects_from_dict(doc["effects"])
+    cutoff = float(doc["q_ddot"]["cutoff_hz"])
+    compensated = arm
+    for e in effects:
+        if isinstance(e, (Payload, InertialError)):
+            compensated = e.apply_to(compensated)
+    rigid_nominal, rigid = pinocchio_from_arm(arm), pinocchio_from_arm(compensated)
+    total, n = 0.0, 0
+    shares: dict[str, list[np.ndarray]] = {e.name: [] for e in effects}
+    for _, rec in test:
+        rate = rec.rate_hz
+        qd_smooth = sosfiltfilt(butter(2, cutoff, fs=rate, output="sos"), rec.qd, axis=0)
+        qdd = np.gradient(qd_smooth, 1.0 / rate, axis=0)
+        tau = np.array([rigid.rnea(q, v, a) for q, v, a in zip(rec.q, rec.qd, qdd)])
+        tau_nominal = np.array([rigid_nominal.rnea(q, v, a) for q, v, a in zip(rec.q, rec.qd, qdd)])
+        model = tau.copy()
+        t = rec.stamps_s
+        for e in effects:
+            if isinstance(e, (Payload, InertialError)):
+                share = tau - tau_nominal
+            elif isinstance(e, Delay):
+                share = np.stack([np.interp(t - e.delay_s[j], t, tau_nominal[:, j]) for j in range(7)], axis=1) - tau_nominal
+                model = model + share
+            else:
+                share = e.torque(arm, rec.q, rec.qd, qdd)
+                model = model + share
+            shares[e.name].append(share)
+        total += float(np.sum((rec.effort - model) ** 2))
+        n += len(rec)
+    return total / n, {k: np.sqrt(np.mean(np.concatenate(v) ** 2, axis=0)) for k, v in shares.items()}
+
+
+# ----------------------------------------------------------------------------- the real robot
 @needs_real
 @pytest.mark.parametrize("held_out", range(4), ids=[p.name[:14] for p in REAL_FILES] or None)
 def test_real_robot_gap_is_the_s1_spring(real_recordings, held_out: int) -> None:
-    """Train on three real files, test on the fourth: the gap sits at s1, the spring explains it,
-    and it cuts s1's held-out RMS by at least 90 %."""
+    """Train on three real files, test on the fourth: the gap sits at s1, the spring explains most of
+    it (ranked first) and cuts s1's held-out RMS by at least 95 %; the recomputed figure agrees."""
     arm = load_arm_model("left")
     train = [r for i, r in enumerate(real_recordings) if i != held_out]
     result = diagnose(arm, train, [real_recordings[held_out]])
@@ -41,19 +91,121 @@ def test_real_robot_gap_is_the_s1_spring(real_recordings, held_out: int) -> None
     first = result.effects[0]
     assert first.selected and first.name == "s1_spring" and first.joints == ("left_s1",)
     cut = 1 - result.final_test_rms[s1] / result.baseline_test_rms[s1]
-    assert cut >= 0.9, (result.baseline_test_rms, result.final_test_rms)
-    # Every candidate is reported, once, with a reason.
+    assert cut >= 0.95, (result.baseline_test_rms, result.final_test_rms)
+    # Every candidate is reported, once, with a reason; the stability count is there for the selected.
     assert sorted(e.name for e in result.effects) == sorted(CANDIDATE_NAMES)
     assert all(e.reason for e in result.effects)
+    assert all(e.folds == 3 and 0 <= e.folds_selected <= 3 for e in result.selected())
+    mse, _ = held_out_from_yaml(effects_yaml(result), arm, [real_recordings[held_out]])
+    # The diagnosis fits and measures a delay to first order (−d τ̇); effects.yaml means the shift
+    # itself, which here fits up to 4 % better (0.361 against 0.375 N·m² with the sin_XYZ_12s file held out).
+    np.testing.assert_allclose(mse, float(np.sum(result.final_test_rms**2)), rtol=0.05)
 
 
+@needs_real
+def test_real_inertial_fit_stays_physical(real_recordings) -> None:
+    """On real data the fitted links keep positive-definite pseudo-inertias, masses within the stated
+    range and centres of mass within the stated box of the paper's values."""
+    arm = load_arm_model("left")
+    result = diagnose(arm, real_recordings[1:], real_recordings[:1])
+    inertial = next(e for e in result.effects if e.name == "inertial_error")
+    assert inertial.selected
+    changed = inertial.effect.apply_to(arm)
+    for before, after in zip(arm.links, changed.links):
+        assert MASS_RANGE[0] * before.mass_kg - 1e-9 <= after.mass_kg <= MASS_RANGE[1] * before.mass_kg + 1e-9
+        assert np.all(np.abs(after.com_m - before.com_m) <= COM_BOX_M + 1e-9)
+        assert np.all(np.linalg.eigvalsh(changed.pseudo_inertias) > 0)
+    assert all("set_by_prior" in link and "before" in link for link in inertial.inertial)
+
+
+# ----------------------------------------------------------------------------- withheld effects
 @pytest.mark.parametrize("scenario", SCENARIOS, ids=[s.label for s in SCENARIOS])
-def test_withheld_effect_is_found_and_removed(scenario) -> None:
+def test_withheld_effect_is_found_and_removed(scenario: Scenario) -> None:
     """Simulated recordings with effects the diagnosis is not told: the injected effect ranks first
-    (pairs: both in the top three) and ≥ 80 % of the held-out error it adds is gone."""
+    (not counting acceleration_noise; pairs: the first two), no selected effect is a no-op, and ≥ 80 %
+    of the held-out error it adds is gone — recomputed from effects.yaml and the test recordings."""
     outcome = run_scenario(scenario)
     assert outcome.ranked_as_required, (scenario.injected, outcome.selected)
-    assert outcome.shrink_fraction >= 0.8, outcome.shrink_fraction
+    text = effects_yaml(outcome.result)
+    mse_final, shares = held_out_from_yaml(text, load_arm_model("right"), outcome.test)
+    added = outcome.mse_with - outcome.mse_without
+    shrink = (outcome.mse_with - mse_final) / added
+    assert shrink >= REQUIRED_SHRINK, shrink
+    for name, rms in shares.items():
+        assert rms.max() >= NO_OP_NM, f"{name} is selected but changes nothing ({rms} N·m RMS)"
+    if "payload" in scenario.effects:
+        payload = next(e for e in outcome.result.selected() if e.name == "payload").effect
+        assert PAYLOAD_MASS_KG[0] <= payload.mass_kg <= PAYLOAD_MASS_KG[1]
+        assert all(lo <= c <= hi for c, (lo, hi) in zip(payload.com_m, PAYLOAD_COM_BOX_M))
+        np.testing.assert_allclose(payload.mass_kg, scenario.effects["payload"]["mass_kg"], rtol=0.1)
+
+
+def test_drifting_offsets_are_reported_as_drift() -> None:
+    """Offsets that differ per recording: each training recording's own offsets are reported with
+    their spread; where the injected drift is large the joint is said to drift."""
+    scenario = next(s for s in HARD if "drift" in s.label)
+    outcome = run_scenario(scenario)
+    offset = next(e for e in outcome.result.selected() if e.name == "torque_offset")
+    drift = offset.drift
+    injected = np.array([d["torque_offset"]["offset_nm"] for d in scenario.per_recording[: len(scenario.train)]])
+    assert set(drift["per_recording_nm"]) == {f"{t}-{s}" for t, s in scenario.train}
+    fitted = np.array([drift["per_recording_nm"][f"{t}-{s}"] for t, s in scenario.train])
+    joints = [int(["right_s0", "right_s1", "right_e0", "right_e1", "right_w0", "right_w1", "right_w2"].index(j)) for j in drift["joints"]]
+    np.testing.assert_allclose(fitted, injected[:, joints], atol=0.03)
+    spread = injected.std(axis=0, ddof=1)
+    assert {f"right_{n}" for n, s in zip(("s0", "s1", "e0", "e1", "w0", "w1", "w2"), spread) if s > 0.08} <= set(drift["drifting"])
+    doc = yaml.safe_load(effects_yaml(outcome.result))
+    assert set(doc["offset_drift"]["joints"]) == set(drift["drifting"])
+
+
+def test_per_joint_effects_act_only_where_they_pay() -> None:
+    """Viscous friction at s0 and e1 only: selected at those joints, zero elsewhere in effects.yaml."""
+    damping = [1.5, 0.0, 0.0, 0.8, 0.0, 0.0, 0.0]
+    outcome = run_scenario(Scenario("viscous at s0, e1", {"viscous_friction": {"damping_nm_s_rad": damping}}))
+    viscous = next(e for e in outcome.result.selected() if e.name == "viscous_friction")
+    assert viscous.joints == ("right_s0", "right_e1")
+    doc = yaml.safe_load(effects_yaml(outcome.result))
+    assert doc["joints"]["viscous_friction"] == ["right_s0", "right_e1"]
+    fitted = np.array(doc["effects"]["viscous_friction"]["damping_nm_s_rad"])
+    assert np.all(fitted[[1, 2, 4, 5, 6]] == 0.0)
+    np.testing.assert_allclose(fitted[[0, 3]], [1.5, 0.8], rtol=0.15)
+
+
+def test_a_set_that_does_not_carry_over_is_said_to() -> None:
+    """Trained with a gripper, tested after it was put down: the payload hurts on the test data, and
+    the verdict says so per joint and in plain words at the top."""
+    gripper = {"payload": {"mass_kg": 1.5, "com_m": [0.0, 0.0, 0.1]}}
+    scenario = Scenario("gripper in training only", gripper, per_recording=())
+    from baxter_dynamics_ros.diagnosis_validation import _arm, _recordings
+
+    train = _recordings(scenario, scenario.train, ())
+    test = _recordings(Scenario("no gripper", {}), scenario.test, ())
+    result = diagnose(_arm(), train, test)
+    payload = next(e for e in result.selected() if e.name == "payload")
+    assert any(v["verdict"] == "hurt" for v in payload.test_verdict.values())
+    assert result.worse_joints
+    assert any("WORSE than the denoised rigid-body model" in w for w in result.warnings())
+
+
+def test_uncertain_selection_is_marked() -> None:
+    """An effect a fold would not have chosen is marked uncertain in the result and in diagnosis.json."""
+    scenario = Scenario("two recordings: weak friction", {"coulomb_friction": _single("coulomb_friction", 0.3)}, train=(("random", 11), ("paper_y", 13)))
+    outcome = run_scenario(scenario)
+    doc = outcome.result.to_dict()
+    for e, entry in zip(outcome.result.effects, doc["effects"]):
+        assert entry["uncertain"] == (e.selected and e.folds_selected < 0.75 * e.folds)
+        assert entry["folds"] == (2 if e.selected else entry["folds"])
+    assert doc["folds"] == 2
+    assert any("weak vote" in w for w in outcome.result.warnings())
+
+
+def test_rigid_reference_is_the_raw_world() -> None:
+    """The shrink's baseline: the rigid model with the paper's q̈ on the clean test recordings is
+    what the simulator's sensor noise alone leaves (a sanity check of the judge)."""
+    from baxter_dynamics_ros.diagnosis_validation import _clean_test, SENSOR, TEST, RATE_HZ
+
+    clean = _clean_test(TEST, RATE_HZ, SENSOR)
+    assert 0.0 < rigid_mse(clean) < 7 * 0.5**2
 
 
 # ----------------------------------------------------------------------------- the command
@@ -70,13 +222,18 @@ def test_diagnose_command_writes_report_json_and_effects(tmp_path: Path) -> None
     assert "report:" in done.stdout
     doc = json.loads((out / "diagnosis.json").read_text())
     assert doc["joints"] == [f"left_{j}" for j in ("s0", "s1", "e0", "e1", "w0", "w1", "w2")]
-    assert len(doc["baseline"]["test_rms"]) == 7 and len(doc["final"]["test_rms"]) == 7
-    assert {"name", "joints", "params", "test_rms_after", "selected"} <= set(doc["effects"][0])
+    assert len(doc["baseline"]["test_rms"]) == 7 and len(doc["final"]["test_rms"]) == 7 and len(doc["denoised"]["test_rms"]) == 7
+    keys = {"name", "joints", "params", "params_std", "test_rms_after", "selected", "uncertain", "folds_selected", "folds", "share_nm2", "test_verdict"}
+    assert keys <= set(doc["effects"][0])
+    assert {"worse_than_denoised", "warnings"} <= set(doc["verdict"]) and doc["folds"] == 3 and doc["search"]
     assert doc["effects"][0]["name"] == "s1_spring"
     effects = load_effects(out / "effects.yaml")
     assert "s1_spring" in [e.name for e in effects]
+    raw = yaml.safe_load((out / "effects.yaml").read_text())
+    assert raw["joints"]["s1_spring"] == ["left_s1"] and raw["q_ddot"]["cutoff_hz"] == doc["q_ddot_cutoff_hz"]
     html = (out / "report.html").read_text()
     assert "data:image/png;base64," in html and "http" not in html.split("<body>", 1)[1]
+    assert "Did each effect help on the test data?" in html
     for png in ("residual_over_time.png", "regimes.png", "before_after.png"):
         assert (out / png).read_bytes()[:4] == b"\x89PNG"
     # Nothing more is written without --force, and inputs are never outputs.
@@ -102,4 +259,4 @@ def test_without_test_files_a_whole_file_is_held_out(tmp_path: Path) -> None:
     assert done.returncode == 0, done.stderr
     doc = json.loads((tmp_path / "d" / "diagnosis.json").read_text())
     assert doc["test_files"] == [str(REAL_FILES[1])] and doc["train_files"] == [str(REAL_FILES[0])]
-    assert doc["holdout"] == "four contiguous blocks of the training file"
+    assert doc["holdout"].startswith("4 contiguous blocks of the training recording")

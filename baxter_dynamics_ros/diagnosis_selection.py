@@ -1,0 +1,402 @@
+"""Which candidate effects explain the residual: stepwise selection that does not depend on its order.
+
+Score of a model M on a pool of training blocks, with the joint weights w_j = 1/σ_j² of the
+current model (σ_j² its cross-validated mean squared error at joint j):
+
+    S(M) = (n_eff / n) Σ_j w_j CV_j(M) + 2 df(M)
+
+CV_j the held-out squared error at joint j summed over the leave-one-group-out folds, n the
+training samples, n_eff the effective ones (``DECORRELATION_S`` apart), df the effective number of
+parameters. This is Akaike's criterion for Gaussian errors of a different level at each joint,
+with the likelihood measured on held-out data: a parameter must remove more held-out error than
+twice an effective sample's worth of the residual it explains, wherever it acts.
+
+Moves, each accepted only if it lowers S (all compared under the same weights):
+
+- **add** a candidate: a whole effect (the s1 spring, a payload, the inertial change), or a
+  per-joint effect at the joints where it pays — tried at every free joint, then kept only at
+  those whose own weighted gain exceeds their own penalty, whose held-out error falls by
+  ``MIN_JOINT_GAIN`` and ``MIN_JOINT_GAIN_NM``, and whose parameters differ from zero by more than
+  their uncertainty;
+- after each addition, **remove** a selected effect, or one joint of a per-joint effect, and
+  **replace** an effect by the other member of its family (``payload`` ⇄ ``inertial_error``,
+  ``coulomb_friction`` ⇄ ``stribeck_friction`` at the same joints, any variant), until no such move
+  lowers S. A family member never enters beside another at the same joint.
+
+A term whose parameters are zero (at a bound) or within their uncertainty of zero at every joint
+is never kept: the test is a Wald test at 95 % against the covariance of the fit (with effective
+samples) plus the spread of the fold fits. Models once left are not entered again, so the search
+ends.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.stats import chi2
+
+from .arm_model import ArmModel
+from .diagnosis_fit import DECORRELATION_S, Fit, Fitter, Model, Term
+from .diagnosis_statistics import ColumnLayout, N, Pool, S1
+
+__all__ = ["Evaluation", "Selection", "select"]
+
+#: A kept term must cut some joint's held-out squared error by this fraction and its held-out RMS
+#: by MIN_JOINT_GAIN_NM (the effort's quantisation is 0.004 N·m).
+MIN_JOINT_GAIN = 0.05
+MIN_JOINT_GAIN_NM = 0.01
+#: Significance level of the test that a term's parameters differ from zero.
+SIGNIFICANCE = 0.95
+#: Floor of a joint's σ², N·m² (the weights stay finite on a joint the model explains exactly).
+SIGMA2_FLOOR = 1e-6
+#: Families of effects that are alternatives of each other (at most one per joint).
+FAMILIES = ({"payload", "inertial_error"}, {"coulomb_friction", "stribeck_friction"})
+MAX_MOVES = 60
+#: A move must lower the score by this much (half of one parameter's penalty), so that the search
+#: does not swap between alternatives that explain the data equally well.
+MOVE_TOLERANCE = 1.0
+#: Removals whose Wald statistic exceeds twice their parameters by more than this are not tried
+#: (they would raise the score by about the excess; see ``_Search.wald``).
+WALD_SCREEN = 25.0
+
+
+@dataclass
+class Evaluation:
+    """A model's fit, cross-validated error per joint and score under the selection's current weights."""
+
+    model: Model
+    fit: Fit
+    folds: list[Fit]
+    cv: np.ndarray  # (7,) N·m², summed over the folds
+    score: float
+    per_fold: np.ndarray  # (folds, 7) N·m², each fold's held-out squared error
+
+
+@dataclass(frozen=True)
+class Selection:
+    """The outcome of one selection run."""
+
+    model: Model
+    evaluation: Evaluation
+    fitter: Fitter
+    moves: tuple[str, ...]
+
+
+def _family(name: str) -> set[str]:
+    return next((f for f in FAMILIES if name in f), {name})
+
+
+class _Search:
+    def __init__(self, arm: ArmModel, layout: ColumnLayout, pool: Pool) -> None:
+        self.arm, self.layout, self.pool = arm, layout, pool
+        n_eff = max(pool.duration_s / DECORRELATION_S, 1.0)
+        self.lam = pool.samples / n_eff  # samples per effective sample
+        self.fitter = Fitter(arm, layout, pool, np.ones(N), self.lam)
+        self.trial = self.fitter.with_weights(self.fitter.weights, quick=True)
+        self.visited: set[Model] = set()
+        self.moves: list[str] = []
+
+    # -- evaluation
+    def canonical(self, model: Model) -> Model:
+        """With the s1 spring in a model, s1 has no offset of its own (the spring's preload is it)."""
+        names = {self.layout.candidates[t.candidate].name: t for t in model.terms}
+        offset = names.get("torque_offset")
+        if "s1_spring" in names and offset is not None and S1 in offset.joints:
+            return model.with_term(Term(offset.candidate, tuple(j for j in offset.joints if j != S1)))
+        return model
+
+    def reweight(self, model: Model) -> Evaluation:
+        """Weights from the model's own held-out error (two passes: the fits depend on the weights)."""
+        model = self.canonical(model)
+        for _ in range(2):
+            cv, _, _ = self.fitter.cv_sse(model)
+            self.fitter = self.fitter.with_weights(1.0 / np.maximum(cv / self.pool.samples, SIGMA2_FLOOR))
+        self.trial = self.fitter.with_weights(self.fitter.weights, quick=True)
+        return self.evaluate(model, exact=True)
+
+    def evaluate(self, model: Model, exact: bool = False) -> Evaluation:
+        """The model's evaluation; trial models (exact False) are fitted quickly (``Fitter.quick``)."""
+        fitter = self.fitter if exact else self.trial
+        model = self.canonical(model)
+        cv, folds, per_fold = fitter.cv_sse(model)
+        fit = fitter.fit(model)
+        score = float(fitter.weights @ cv) / self.lam + 2.0 * fit.df
+        return Evaluation(model, fit, folds, cv, score, per_fold)
+
+    def nominal_size(self, model: Model) -> int:
+        """The model's parameters as written (per-joint effects at their joints, links × 10)."""
+        return len(self.fitter.columns(model))
+
+    def margin(self, current: Evaluation, trial: Evaluation) -> float:
+        """How much lower a richer alternative's score must be for it to replace the current one:
+        MOVE_TOLERANCE, or twice the standard error of the score difference estimated from the
+        folds' own held-out errors when that is larger (one noisy fold does not decide)."""
+        folds = len(current.per_fold)
+        if folds < 2:
+            return MOVE_TOLERANCE
+        d = (trial.per_fold - current.per_fold) @ self.fitter.weights / self.lam
+        return max(MOVE_TOLERANCE, 2.0 * float(np.sqrt(folds * np.var(d, ddof=1))))
+
+    def preferred(self, current: Evaluation, trial: Evaluation, swap: bool = False) -> bool:
+        """Whether the search moves from current to trial: its score must be lower by MOVE_TOLERANCE.
+        Between alternatives of one family (inertial_error and payload, Stribeck and Coulomb) the
+        richer is preferred only when it scores lower by the larger ``margin``: a swap to the richer
+        needs that much, a swap to the simpler is taken unless the richer is that much better, so
+        an alternative that fits only as well as the simpler one never keeps its place."""
+        delta = trial.score - current.score
+        if swap:
+            richer = self.nominal_size(trial.model) - self.nominal_size(current.model)
+            if richer > 0:
+                return delta < -self.margin(current, trial)
+            if richer < 0:
+                return delta < self.margin(current, trial)
+        return delta < -MOVE_TOLERANCE
+
+    # -- tests on a term
+    def significant(self, ev: Evaluation, positions: np.ndarray) -> bool:
+        """Wald test at SIGNIFICANCE of the parameters at positions against zero (bounds count as zero)."""
+        fit = ev.fit
+        x = fit.x[positions]
+        free = fit.free[positions]
+        if not np.any(free):
+            return False
+        x = np.where(free, x, 0.0)
+        folds = np.array([f.x[positions] for f in ev.folds])
+        k = len(folds)
+        jack = (k - 1) / k * (folds - folds.mean(axis=0)).T @ (folds - folds.mean(axis=0)) if k > 1 else 0.0
+        cov = fit.cov_x[np.ix_(positions, positions)] + jack
+        vals, vecs = np.linalg.eigh(cov)
+        keep = vals > 1e-12 * max(float(vals.max()), 1e-300)
+        if not np.any(keep):
+            return bool(np.any(np.abs(x) > 0))
+        proj = vecs[:, keep].T @ x
+        stat = float(np.sum(proj**2 / vals[keep]))
+        return stat > chi2.ppf(SIGNIFICANCE, int(keep.sum()))
+
+    def joint_gain_ok(self, before: np.ndarray, after: np.ndarray, joints: list[int] | None = None) -> np.ndarray:
+        """(7,) True where the held-out error falls by MIN_JOINT_GAIN and MIN_JOINT_GAIN_NM RMS."""
+        n = self.pool.samples
+        rel = (before - after) / np.maximum(before, 1e-300)
+        rms = np.sqrt(np.maximum(before, 0) / n) - np.sqrt(np.maximum(after, 0) / n)
+        return (rel >= MIN_JOINT_GAIN) & (rms >= MIN_JOINT_GAIN_NM)
+
+    def joint_params(self, ev: Evaluation, term: Term, joint: int) -> np.ndarray:
+        """Positions of a per-joint term's parameters at one joint."""
+        cand = self.layout.candidates[term.candidate]
+        index = ev.model.terms.index(term)
+        positions = self.fitter.positions(ev.model)[term]
+        cols = self.fitter.term_columns(ev.model)[index]
+        wanted = set(cand.joint_columns([joint]).tolist())
+        return positions[[k for k, c in enumerate(cols) if c in wanted]]
+
+    def term_ok(self, ev: Evaluation, term: Term) -> bool:
+        """The term's parameters are significant (per joint for the per-joint kinds: at every joint)."""
+        cand = self.layout.candidates[term.candidate]
+        if cand.kind != "joint":
+            return self.significant(ev, self.fitter.positions(ev.model)[term])
+        return all(len(p) == 0 or self.significant(ev, p) for p in (self.joint_params(ev, term, j) for j in term.joints))
+
+    # -- moves
+    def blocked_joints(self, model: Model, candidate: int) -> set[int]:
+        """Joints where another member of the candidate's family (or another variant) already acts."""
+        cand = self.layout.candidates[candidate]
+        out: set[int] = set()
+        if cand.name == "torque_offset" and any(self.layout.candidates[t.candidate].name == "s1_spring" for t in model.terms):
+            out.add(S1)
+        for t in model.terms:
+            other = self.layout.candidates[t.candidate]
+            if t.candidate != candidate and other.name in _family(cand.name):
+                out |= set(t.joints) if other.kind == "joint" else set(range(N))
+        return out
+
+    def try_add(self, current: Evaluation, index: int) -> tuple[str, Evaluation | None, str]:
+        """The add move of one candidate: (label, trial or None, why not if None)."""
+        cand = self.layout.candidates[index]
+        model = current.model
+        names_in = {self.layout.candidates[t.candidate].name: t.candidate for t in model.terms}
+        if cand.name in names_in and names_in[cand.name] != index:
+            return "", None, "another variant of it is selected"
+        blocked = self.blocked_joints(model, index)
+        have = model.term(index)
+        if cand.kind != "joint":
+            if have is not None:
+                return "", None, "selected"
+            if blocked:
+                other = next(self.layout.candidates[t.candidate].label for t in model.terms if self.layout.candidates[t.candidate].name in _family(cand.name) and t.candidate != index)
+                return "", None, f"its alternative {other} is selected"
+            trial = self.evaluate(model.with_term(Term(index, self._touched(index))))
+            term = trial.model.term(index)
+            if not self.joint_gain_ok(current.cv, trial.cv).any():
+                return "", trial, f"improves no joint's held-out error by {MIN_JOINT_GAIN:.0%} and {MIN_JOINT_GAIN_NM:g} N·m RMS"
+            if not self.term_ok(trial, term):
+                return "", trial, "its fitted parameters are at their bounds or within their uncertainty of zero"
+            return f"add {cand.label}", trial, ""
+        free = [j for j in range(N) if j not in blocked and (have is None or j not in have.joints)]
+        if not free:
+            return "", None, "selected at every joint it may act on" if have else "an alternative acts at every joint"
+        existing = list(have.joints) if have else []
+        wide = self.evaluate(model.with_term(Term(index, tuple(sorted(existing + free)))))
+        term = wide.model.term(index)
+        gain_ok = self.joint_gain_ok(current.cv, wide.cv)
+        penalty = 2.0 * cand.p_joint
+        keep, pays, significant = [], 0, 0
+        for j in free:
+            weighted_gain = self.fitter.weights[j] * (current.cv[j] - wide.cv[j]) / self.lam
+            params = self.joint_params(wide, term, j)
+            sig = bool(len(params)) and self.significant(wide, params)
+            pays += bool(weighted_gain > penalty and gain_ok[j])
+            significant += sig
+            if weighted_gain > penalty and gain_ok[j] and sig:
+                keep.append(j)
+        if not keep:
+            if not significant:
+                why = "its fitted parameters are at their bounds or within their uncertainty of zero at every joint"
+            elif not pays:
+                why = f"at no joint does it remove {MIN_JOINT_GAIN:.0%} and {MIN_JOINT_GAIN_NM:g} N·m RMS of the held-out error and more than its penalty"
+            else:
+                why = "where it would pay, its parameters are within their uncertainty of zero"
+            return "", wide, why
+        trial = wide if keep == free else self.evaluate(model.with_term(Term(index, tuple(sorted(existing + keep)))))
+        return f"add {cand.label} at {self._joint_names(keep)}", trial, ""
+
+    def add_moves(self, current: Evaluation) -> Iterator[tuple[str, Evaluation]]:
+        for index in range(len(self.layout.candidates)):
+            label, trial, _ = self.try_add(current, index)
+            if label:
+                yield label, trial
+
+    def wald(self, ev: Evaluation, positions: np.ndarray) -> float:
+        """The Wald statistic of the parameters at positions against zero (fit covariance only).
+
+        Removing them raises the score by about this minus twice their number (the training part
+        of S moves by exactly this for a linear fit), so a removal is worth trying only below
+        ``2 p + WALD_SCREEN``.
+        """
+        x = ev.fit.x[positions]
+        cov = ev.fit.cov_x[np.ix_(positions, positions)]
+        vals, vecs = np.linalg.eigh(cov)
+        keep = vals > 1e-12 * max(float(vals.max()), 1e-300)
+        proj = vecs[:, keep].T @ x
+        return float(np.sum(proj**2 / vals[keep]))
+
+    def backward_moves(self, current: Evaluation) -> Iterator[tuple[str, Evaluation]]:
+        model = current.model
+        positions = self.fitter.positions(model)
+        for t in model.terms:
+            cand = self.layout.candidates[t.candidate]
+            if self.wald(current, positions[t]) < 2 * len(positions[t]) + WALD_SCREEN:
+                yield f"remove {cand.label}", self.evaluate(model.without(t.candidate))
+            if cand.kind == "joint" and len(t.joints) > 1:
+                for j in t.joints:
+                    at = self.joint_params(current, t, j)
+                    if len(at) and self.wald(current, at) >= 2 * len(at) + WALD_SCREEN:
+                        continue
+                    yield f"remove {cand.label} at {self._joint_names([j])}", self.evaluate(model.with_term(Term(t.candidate, tuple(k for k in t.joints if k != j))))
+            present = {self.layout.candidates[s.candidate].name: s.candidate for s in model.terms}
+            for index, other in enumerate(self.layout.candidates):
+                if other.name == cand.name or other.name not in _family(cand.name):
+                    continue
+                if present.get(other.name, index) != index:
+                    continue  # that effect is in the model with another variant
+                if other.kind == "joint":
+                    joints = tuple(j for j in t.joints if j not in self.blocked_joints(model.without(t.candidate), index))
+                else:
+                    joints = self._touched(index)
+                if not joints:
+                    continue
+                swapped = Model.of([s for s in model.terms if s.candidate != t.candidate] + [Term(index, joints)])
+                yield f"replace {cand.label} by {other.label}", self.evaluate(swapped)
+
+    def _touched(self, index: int) -> tuple[int, ...]:
+        """The joints a whole-effect candidate can act on."""
+        cand = self.layout.candidates[index]
+        cols = cand.columns
+        return tuple(j for j in range(N) if np.any(self.pool.H[j][np.ix_(cols, cols)].diagonal() > 0))
+
+    def _joint_names(self, joints) -> str:
+        return ", ".join(self.arm.joint_names[j].split("_", 1)[-1] for j in joints)
+
+    # -- pruning
+    def prune(self, current: Evaluation) -> Evaluation:
+        """Drop terms (or joints of per-joint terms) whose parameters are not significant."""
+        while True:
+            for t in current.model.terms:
+                cand = self.layout.candidates[t.candidate]
+                if cand.kind == "joint":
+                    bad = [j for j in t.joints if not (len(p := self.joint_params(current, t, j)) and self.significant(current, p))]
+                    if bad:
+                        self.moves.append(f"drop {cand.label} at {self._joint_names(bad)}: parameters within their uncertainty of zero")
+                        current = self.reweight(current.model.with_term(Term(t.candidate, tuple(j for j in t.joints if j not in bad))))
+                        break
+                elif not self.term_ok(current, t):
+                    self.moves.append(f"drop {cand.label}: parameters within their uncertainty of zero")
+                    current = self.reweight(current.model.without(t.candidate))
+                    break
+            else:
+                return current
+
+    def run(self, start: Model | None = None) -> Selection:
+        """The search from the empty model (or from ``start``, backward moves first)."""
+        current = self.reweight(start or Model())
+        self.visited.add(current.model)
+        backward_first = start is not None
+        for _ in range(MAX_MOVES):
+            if not backward_first:
+                options = [(ev.score, label, ev) for label, ev in self.add_moves(current) if ev.model not in self.visited and self.preferred(current, ev)]
+                best = min(options, key=lambda o: o[0], default=None)
+                if best is None:
+                    break
+                self.moves.append(best[1])
+                current = self.reweight(best[2].model)
+                self.visited.add(current.model)
+            backward_first = False
+            while True:
+                options = [
+                    (ev.score, label, ev)
+                    for label, ev in self.backward_moves(current)
+                    if ev.model not in self.visited and self.preferred(current, ev, swap=label.startswith("replace"))
+                ]
+                best = min(options, key=lambda o: o[0], default=None)
+                if best is None:
+                    break
+                self.moves.append(best[1])
+                # The weights stay those of the last addition through the backward phase, so that its
+                # moves all improve one fixed criterion and cannot cycle.
+                current = self.evaluate(best[2].model, exact=True)
+                self.visited.add(current.model)
+        current = self.prune(current)
+        return Selection(current.model, current, self.fitter, tuple(self.moves))
+
+
+def select(arm: ArmModel, layout: ColumnLayout, pool: Pool, start: Model | None = None) -> Selection:
+    """Run the stepwise selection on a pool of training blocks (module docstring); from ``start``
+    (a model of the same layout) instead of the empty model when given."""
+    return _Search(arm, layout, pool).run(start)
+
+
+def explain_unselected(
+    arm: ArmModel, layout: ColumnLayout, pool: Pool, final: Evaluation, fitter: Fitter
+) -> dict[str, tuple[str, Evaluation | None, str]]:
+    """For each effect not in the final model: (variant, the trial of adding its best variant or
+    None, why it is not selected), judged as the search would, under the final model's weights."""
+    search = _Search(arm, layout, pool)
+    search.fitter = fitter
+    search.trial = fitter
+    selected = {layout.candidates[t.candidate].name for t in final.model.terms}
+    out: dict[str, tuple[str, Evaluation | None, str]] = {}
+    for index, cand in enumerate(layout.candidates):
+        if cand.name in selected:
+            continue
+        label, trial, why = search.try_add(final, index)
+        if label:
+            why = (
+                f"adding it at the end would {'lower' if trial.score < final.score else 'raise'} the score by "
+                f"{abs(final.score - trial.score):.3g}, less than a move must"
+            )
+        previous = out.get(cand.name)
+        score = trial.score if trial is not None else np.inf
+        if previous is None or (previous[1] is None and trial is not None) or (trial is not None and previous[1] is not None and score < previous[1].score):
+            out[cand.name] = (cand.variant, trial, why)
+    return out

@@ -1,0 +1,315 @@
+"""The diagnosis' data side: candidate effects as regressor columns, and sufficient statistics.
+
+Every candidate effect except ``acceleration_noise`` is linear in its parameters θ for fixed shape
+parameters (friction velocity scales): its share of the effort is Φ θ with Φ = ``effect.regressor``.
+Shape parameters take a few values; each is a *variant* of its effect. All candidates' columns sit
+side by side in one layout (:class:`ColumnLayout`); ``payload`` shares link 7's columns of
+``inertial_error`` (they are the same regressor, and the two never enter one model).
+
+A recording is reduced to sufficient statistics per contiguous block and joint j:
+H_j = Σ Φ_jᵀ Φ_j, b_j = Σ Φ_jᵀ r_j and r_jᵀ r_j, with r the rigid-body residual in the *denoised*
+world (q̈ from a zero-phase low-pass on q̇, cut-off chosen on the training data), plus r_jᵀ r_j of
+the raw world (the paper's first difference of q̇) for the ``acceleration_noise`` share. The squared
+error of any fit x on any block is then exact: r·r − 2 x·b + xᵀ H x.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .acceleration import first_difference, zero_phase_acceleration
+from .arm_model import ArmModel
+from .effects import (
+    Armature,
+    CoulombFriction,
+    Delay,
+    Effect,
+    InertialError,
+    S1Spring,
+    StribeckFriction,
+    TorqueOffset,
+    ViscousFriction,
+)
+from .recording import JOINT_SUFFIXES, Recording
+
+__all__ = [
+    "Block",
+    "Candidate",
+    "ColumnLayout",
+    "Pool",
+    "Prepared",
+    "choose_cutoff",
+    "column_layout",
+    "prepare",
+    "recording_blocks",
+]
+
+N = len(JOINT_SUFFIXES)
+S1 = 1  # index of joint s1
+#: Cut-offs (Hz) tried for the denoised world's zero-phase low-pass on q̇.
+CUTOFF_GRID_HZ = (1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0)
+#: Regressor rows evaluated at once (bounds the memory of the statistics pass).
+CHUNK = 8192
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One variant of an effect and where its parameters sit among all candidates' columns.
+
+    kind: "joint" — p_joint parameters per joint, each acting on its own joint only (column
+    ``columns[k * 7 + j]`` is parameter k at joint j); "linear" — a fixed set of columns (the s1
+    spring); "inertial" — inertial parameters of whole links, fitted through the log-Cholesky
+    parametrisation (:mod:`baxter_dynamics_ros.log_cholesky`), ``links`` the link indices.
+    lower: (p,) lower bounds of the linear kinds' parameters.
+    """
+
+    name: str
+    variant: str
+    kind: str
+    template: Effect
+    columns: np.ndarray
+    lower: np.ndarray
+    p_joint: int = 0
+    links: tuple[int, ...] = ()
+
+    @property
+    def label(self) -> str:
+        return f"{self.name} ({self.variant})" if self.variant else self.name
+
+    def joint_columns(self, joints: Sequence[int]) -> np.ndarray:
+        """The columns of the parameters at ``joints`` (kind "joint"), parameter-major."""
+        return np.array([self.columns[k * N + j] for k in range(self.p_joint) for j in sorted(joints)], dtype=int)
+
+
+@dataclass(frozen=True)
+class ColumnLayout:
+    """Every candidate and the total number of distinct columns."""
+
+    candidates: tuple[Candidate, ...]
+    n_columns: int
+    #: The distinct column blocks: (template, first column, width); payload has none of its own.
+    blocks: tuple[tuple[Effect, int, int], ...]
+
+    def by_name(self, name: str) -> tuple[Candidate, ...]:
+        return tuple(c for c in self.candidates if c.name == name)
+
+
+def column_layout() -> ColumnLayout:
+    """The candidates of the diagnosis, in the order of :data:`~baxter_dynamics_ros.effects.EFFECTS`."""
+    zero, free = 0.0, -np.inf
+    specs: list[tuple[str, str, str, Effect, int, float]] = [
+        ("torque_offset", "", "joint", TorqueOffset(offset_nm=0.0), 1, free),
+        ("viscous_friction", "", "joint", ViscousFriction(damping_nm_s_rad=0.0), 1, zero),
+    ]
+    for eps in (0.01, 0.05):
+        specs.append(("coulomb_friction", f"smoothing {eps:g} rad/s", "joint", CoulombFriction(friction_nm=0.0, smoothing_rad_s=eps), 1, zero))
+    for vs in (0.02, 0.05, 0.1, 0.2):
+        specs.append(("stribeck_friction", f"v_s {vs:g} rad/s", "joint", StribeckFriction(coulomb_nm=0.0, static_nm=0.0, stribeck_rad_s=vs), 2, zero))
+    specs.append(("s1_spring", "", "linear", S1Spring(), 3, free))
+    specs.append(("inertial_error", "", "inertial", InertialError(), 70, free))
+    specs.append(("armature", "", "joint", Armature(inertia_kgm2=0.0), 1, zero))
+    specs.append(("delay", "", "joint", Delay(delay_s=0.0), 1, free))
+    candidates, blocks, start = [], [], 0
+    inertial_start = 0
+    for name, variant, kind, template, p, low in specs:
+        width = p * N if kind == "joint" else p
+        columns = np.arange(start, start + width)
+        if kind == "inertial":
+            inertial_start = start
+            candidates.append(Candidate(name, variant, kind, template, columns, np.full(width, free), links=tuple(range(N))))
+        else:
+            candidates.append(Candidate(name, variant, kind, template, columns, np.full(width, low), p_joint=p if kind == "joint" else 0))
+        blocks.append((template, start, width))
+        start += width
+    # The payload: a change of link 7's inertial parameters, the last 10 of inertial_error's columns.
+    from .effects import Payload
+
+    payload = Candidate("payload", "", "inertial", Payload(mass_kg=1.0), np.arange(inertial_start + 60, inertial_start + 70), np.full(10, free), links=(N - 1,))
+    index = [c.name for c in candidates].index("inertial_error")
+    candidates.insert(index, payload)
+    return ColumnLayout(tuple(candidates), start, tuple(blocks))
+
+
+# ----------------------------------------------------------------------------- one recording
+@dataclass(frozen=True)
+class Prepared:
+    """A recording's arrays in the denoised world: filtered q̈, rigid residuals, delay columns
+    (−dτ_rigid/dt with the same q̈, so that a fitted delay means what :class:`Delay` says)."""
+
+    q: np.ndarray  # (n, 7) rad
+    qd: np.ndarray  # (n, 7) rad/s
+    qdd: np.ndarray  # (n, 7) rad/s², zero-phase filtered
+    residual: np.ndarray  # (n, 7) N·m, effort − τ_rigid with the filtered q̈
+    residual_raw: np.ndarray  # (n, 7) N·m, effort − τ_rigid with the first difference of q̇
+    delay_columns: np.ndarray  # (n, 7) −dτ_rigid/dt, N·m/s
+    stamps_s: np.ndarray  # (n,) s
+
+
+def prepare(arm: ArmModel, rec: Recording, cutoff_hz: float) -> Prepared:
+    """The arrays of ``rec`` with q̇ low-passed at cutoff_hz before differentiating."""
+    stamps = rec.stamps_s
+    qdd = zero_phase_acceleration(rec.qd, rec.rate_hz, cutoff_hz)
+    raw = first_difference(rec.qd, stamps)
+    tau = arm.inverse_dynamics(rec.q, rec.qd, qdd)
+    return Prepared(
+        rec.q, rec.qd, qdd, rec.effort - tau, rec.effort - arm.inverse_dynamics(rec.q, rec.qd, raw), -np.gradient(tau, stamps, axis=0), stamps
+    )
+
+
+def regressor(arm: ArmModel, layout: ColumnLayout, p: Prepared, lo: int, hi: int) -> np.ndarray:
+    """(hi − lo, 7, P) every distinct column on samples lo:hi (denoised world)."""
+    q, qd, qdd = p.q[lo:hi], p.qd[lo:hi], p.qdd[lo:hi]
+    out = np.zeros((hi - lo, N, layout.n_columns))
+    idx = np.arange(N)
+    for template, start, width in layout.blocks:
+        if isinstance(template, Delay):
+            out[:, idx, start + idx] = p.delay_columns[lo:hi]
+        else:
+            out[:, :, start : start + width] = template.regressor(arm, q, qd, qdd)
+    return out
+
+
+def active_columns(arm: ArmModel, layout: ColumnLayout) -> list[np.ndarray]:
+    """Per joint, the columns that can be non-zero on it (probed on random states)."""
+    rng = np.random.default_rng(0)
+    q = rng.uniform(arm.lower_rad, arm.upper_rad, (32, N))
+    qd, qdd = rng.uniform(-1, 1, (2, 32, N))
+    probe = Prepared(q, qd, qdd, qdd, qdd, np.ones((32, N)), np.arange(32) * 0.01)
+    phi = regressor(arm, layout, probe, 0, 32)
+    return [np.flatnonzero(np.any(phi[:, j, :] != 0.0, axis=0)) for j in range(N)]
+
+
+@dataclass(frozen=True)
+class Block:
+    """Sufficient statistics of one contiguous block of one recording, per joint."""
+
+    recording: str
+    index: int
+    samples: int
+    duration_s: float
+    H: np.ndarray  # (7, P, P)
+    b: np.ndarray  # (7, P)
+    rr: np.ndarray  # (7,) denoised world
+    rr_raw: np.ndarray  # (7,) raw world
+
+
+def recording_blocks(
+    arm: ArmModel, layout: ColumnLayout, active: list[np.ndarray], label: str, p: Prepared, parts: int
+) -> list[Block]:
+    """The statistics of ``parts`` contiguous blocks of one prepared recording."""
+    n = len(p.q)
+    edges = np.linspace(0, n, parts + 1).astype(int)
+    out = []
+    P = layout.n_columns
+    for k, (lo, hi) in enumerate(zip(edges[:-1], edges[1:])):
+        H = np.zeros((N, P, P))
+        b = np.zeros((N, P))
+        for start in range(lo, hi, CHUNK):
+            stop = min(hi, start + CHUNK)
+            phi = regressor(arm, layout, p, start, stop)
+            r = p.residual[start:stop]
+            for j in range(N):
+                idx = active[j]
+                x = phi[:, j, idx]
+                H[j][np.ix_(idx, idx)] += x.T @ x
+                b[j, idx] += x.T @ r[:, j]
+        rr = np.sum(p.residual[lo:hi] ** 2, axis=0)
+        rr_raw = np.sum(p.residual_raw[lo:hi] ** 2, axis=0)
+        duration = float(p.stamps_s[hi - 1] - p.stamps_s[lo]) if hi - lo > 1 else 0.0
+        out.append(Block(label, k, int(hi - lo), duration, H, b, rr, rr_raw))
+    return out
+
+
+def choose_cutoff(arm: ArmModel, train: Sequence[Recording]) -> float:
+    """The cut-off whose denoised rigid residual is smallest on the training data (no fit involved).
+
+    Each joint's squared error counts relative to its raw-world one, so that the joint with the
+    largest unmodelled torque (s1, with Baxter's spring) does not decide the filter for all.
+    """
+    raw = np.zeros(N)
+    for rec in train:
+        raw += np.sum((rec.effort - arm.inverse_dynamics(rec.q, rec.qd, first_difference(rec.qd, rec.stamps_s))) ** 2, axis=0)
+    best, best_score = CUTOFF_GRID_HZ[0], np.inf
+    for cutoff in CUTOFF_GRID_HZ:
+        if any(cutoff >= 0.45 * rec.rate_hz for rec in train):
+            break
+        sse = np.zeros(N)
+        for rec in train:
+            qdd = zero_phase_acceleration(rec.qd, rec.rate_hz, cutoff)
+            sse += np.sum((rec.effort - arm.inverse_dynamics(rec.q, rec.qd, qdd)) ** 2, axis=0)
+        score = float(np.sum(sse / np.maximum(raw, 1e-300)))
+        if score < best_score:
+            best, best_score = cutoff, score
+    return best
+
+
+# ----------------------------------------------------------------------------- pools of blocks
+class Pool:
+    """Blocks with a grouping for cross-validation (leave one group out), and their sums.
+
+    groups: lists of block indices; every block in exactly one group.
+    """
+
+    def __init__(self, blocks: Sequence[Block], groups: Sequence[Sequence[int]]) -> None:
+        self.blocks = tuple(blocks)
+        self.groups = tuple(tuple(g) for g in groups)
+        if sorted(i for g in self.groups for i in g) != list(range(len(self.blocks))):
+            raise ValueError("every block must be in exactly one group")
+
+        def total(indices, attr):
+            return sum(getattr(self.blocks[i], attr) for i in indices)
+
+        self.group_H = [total(g, "H") for g in self.groups]
+        self.group_b = [total(g, "b") for g in self.groups]
+        self.group_rr = [total(g, "rr") for g in self.groups]
+        self.group_rr_raw = [total(g, "rr_raw") for g in self.groups]
+        self.group_samples = [sum(self.blocks[i].samples for i in g) for g in self.groups]
+        self.H = sum(self.group_H)
+        self.b = sum(self.group_b)
+        self.rr = sum(self.group_rr)
+        self.rr_raw = sum(self.group_rr_raw)
+        self.samples = sum(self.group_samples)
+        self.duration_s = sum(b.duration_s for b in self.blocks)
+        self._recording_sums: dict[int, list] = {}
+
+    @property
+    def recordings(self) -> tuple[str, ...]:
+        return tuple(dict.fromkeys(b.recording for b in self.blocks))
+
+    def recordings_without(self, g: int | None) -> tuple[str, ...]:
+        """The recordings with blocks outside group g (all of them for g None)."""
+        out = set() if g is None else set(self.groups[g])
+        return tuple(dict.fromkeys(b.recording for i, b in enumerate(self.blocks) if i not in out))
+
+    def recording_sums(self, g: int | None) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """(H, b, rr) of each recording (``recordings_without(g)`` order) over its blocks outside group g."""
+        key = -1 if g is None else g
+        if key not in self._recording_sums:
+            out = set() if g is None else set(self.groups[g])
+            sums = []
+            for name in self.recordings_without(g):
+                idx = [i for i, b in enumerate(self.blocks) if b.recording == name and i not in out]
+                sums.append(tuple(sum(getattr(self.blocks[i], a) for i in idx) for a in ("H", "b", "rr")))
+            self._recording_sums[key] = sums
+        return self._recording_sums[key]
+
+    def without_group(self, g: int) -> tuple[np.ndarray, np.ndarray, int]:
+        """(H, b, samples) of every group but g."""
+        return self.H - self.group_H[g], self.b - self.group_b[g], self.samples - self.group_samples[g]
+
+    def sub_pool(self, g: int) -> Pool:
+        """The pool of every group but g, grouped by recording (by block if one recording is left)."""
+        keep = [i for k, grp in enumerate(self.groups) if k != g for i in grp]
+        blocks = [self.blocks[i] for i in keep]
+        return Pool(blocks, default_groups(blocks))
+
+
+def default_groups(blocks: Sequence[Block]) -> list[list[int]]:
+    """Leave one recording out with two or more recordings; with one, leave one block out."""
+    names = list(dict.fromkeys(b.recording for b in blocks))
+    if len(names) > 1:
+        return [[i for i, b in enumerate(blocks) if b.recording == name] for name in names]
+    return [[i] for i in range(len(blocks))]
