@@ -19,7 +19,6 @@ from .errors import CollisionError, RecordingFileError
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The command's options."""
     from msg_adapters.bag_io import DEFAULT_TOPIC
-    from msg_adapters.csv_io import DEFAULT_RATE_HZ
 
     from .collision import DEFAULT_BIAS_TIME_CONSTANT_S, DEFAULT_CONSECUTIVE, DEFAULT_GAIN_1_S, DEFAULT_MARGIN
 
@@ -44,7 +43,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--arm", choices=("right", "left"), help="arm (default: from the joint names)")
     parser.add_argument("--model", type=Path, metavar="YAML", help="arm model file (default: the package's model of the arm)")
     parser.add_argument("--topic", default=DEFAULT_TOPIC, help=f"joint-state topic of bags (default {DEFAULT_TOPIC})")
-    parser.add_argument("--rate", type=float, default=DEFAULT_RATE_HZ, help=f"sample rate of tables without time column, Hz (default {DEFAULT_RATE_HZ:g})")
+    parser.add_argument("--rate-hz", type=float, metavar="HZ", help="sample rate of tables without a time column, Hz (default: estimated from position and velocity)")
     parser.add_argument("--force", action="store_true", help="replace an existing thresholds file")
 
 
@@ -71,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     from .compensation import load_compensation
 
     _check_paths(args.files, args.out, args.force)
-    recordings = [read_recording(p, topic=args.topic, arm=args.arm, rate_hz=args.rate) for p in args.files]
+    recordings = [read_recording(p, topic=args.topic, arm=args.arm, rate_hz=args.rate_hz) for p in args.files]
     sides = {rec.side for rec in recordings}
     if len(sides) > 1:
         raise CollisionError("the recordings are of different arms; pass --arm right|left")

@@ -18,7 +18,6 @@ from .errors import DiagnosisError, RecordingFileError
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The command's options."""
     from msg_adapters.bag_io import DEFAULT_TOPIC
-    from msg_adapters.csv_io import DEFAULT_RATE_HZ
 
     parser.add_argument("--train", type=Path, nargs="+", required=True, metavar="FILE", help="recordings to fit on (bags or tables)")
     parser.add_argument("--test", type=Path, nargs="+", default=[], metavar="FILE", help="held-out recordings to measure on")
@@ -26,7 +25,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--arm", choices=("right", "left"), help="arm to diagnose (default: from the joint names)")
     parser.add_argument("--model", type=Path, metavar="YAML", help="arm model file (default: the package's model of the arm)")
     parser.add_argument("--topic", default=DEFAULT_TOPIC, help=f"joint-state topic of bags (default {DEFAULT_TOPIC})")
-    parser.add_argument("--rate", type=float, default=DEFAULT_RATE_HZ, help=f"sample rate of tables without time column, Hz (default {DEFAULT_RATE_HZ:g})")
+    parser.add_argument("--rate-hz", type=float, metavar="HZ", help="sample rate of tables without a time column, Hz (default: estimated from position and velocity)")
     parser.add_argument("--force", action="store_true", help="replace the outputs of an earlier diagnosis in DIR")
     parser.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None, help="progress bar on stderr (default: when stderr is a terminal)")
 
@@ -59,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
     show = sys.stderr.isatty() if args.progress is None else args.progress
 
     def read(path: Path):
-        return str(path), read_recording(path, topic=args.topic, arm=args.arm, rate_hz=args.rate)
+        return str(path), read_recording(path, topic=args.topic, arm=args.arm, rate_hz=args.rate_hz)
 
     train = [read(p) for p in args.train]
     test = [read(p) for p in args.test]

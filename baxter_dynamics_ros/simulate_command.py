@@ -40,7 +40,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--trajectory", choices=TRAJECTORIES, default="paper_xyz", help="reference trajectory (default paper_xyz)")
     parser.add_argument("--effects", type=Path, metavar="SPEC.yaml", help="effects spec (default: none, the rigid-body arm)")
     parser.add_argument("--duration", type=float, default=60.0, metavar="S", help="recorded time, s (default 60)")
-    parser.add_argument("--rate", type=float, default=100.0, metavar="HZ", help="recording rate, Hz (default 100)")
+    parser.add_argument("--rate-hz", type=float, default=100.0, metavar="HZ", help="recording rate, Hz (default 100)")
     parser.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the noise and the random trajectory (default 0)")
     parser.add_argument("--arm", choices=("right", "left"), default="right", help="simulated arm (default right)")
     parser.add_argument("--topic", default=DEFAULT_TOPIC, help=f"joint-state topic of an mcap output (default {DEFAULT_TOPIC})")
@@ -87,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     spec = SimulationSpec(
         trajectory=args.trajectory,
         duration_s=args.duration,
-        rate_hz=args.rate,
+        rate_hz=args.rate_hz,
         seed=args.seed,
         side=args.arm,
         effects=effects_from_dict(sections["effects"], f"{where}: effects"),

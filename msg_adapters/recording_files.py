@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import sys
 import tempfile
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -29,13 +30,18 @@ from baxter_dynamics_ros.processing import ProcessedRecording
 from baxter_dynamics_ros.recording import Recording
 
 from .bag_io import DEFAULT_TOPIC, Progress, read_bag_recording, write_joint_state_bag, write_processed_bag
-from .csv_io import DEFAULT_RATE_HZ, joint_state_columns, read_table_recording, write_processed_table, write_table
+from .csv_io import Note, joint_state_columns, read_table_recording, write_processed_table, write_table
 
-__all__ = ["OUTPUT_FORMATS", "check_output", "read_recording", "write_joint_states", "write_processed"]
+__all__ = ["OUTPUT_FORMATS", "check_output", "print_to_stderr", "read_recording", "write_joint_states", "write_processed"]
 
 TABLE_SUFFIXES = (".csv", ".txt", ".parquet")
 #: Output extension -> format.
 OUTPUT_FORMATS = {".mcap": "mcap", ".csv": "csv", ".parquet": "parquet"}
+
+
+def print_to_stderr(message: str) -> None:
+    """Print a one-line message for the user on stderr (the default ``note`` of read_recording)."""
+    print(message, file=sys.stderr)
 
 
 def read_recording(
@@ -43,17 +49,20 @@ def read_recording(
     *,
     topic: str = DEFAULT_TOPIC,
     arm: str | None = None,
-    rate_hz: float = DEFAULT_RATE_HZ,
+    rate_hz: float | None = None,
     progress: Progress | None = None,
+    note: Note | None = print_to_stderr,
 ) -> Recording:
-    """One arm's recording from a bag (joint states on ``topic``) or a table (``rate_hz`` if untimed).
+    """One arm's recording from a bag (joint states on ``topic``) or a table.
 
-    Raises RecordingFileError naming the path for anything wrong with the file's contents.
+    rate_hz: the sample rate of a table without a time column (None: estimated, and the estimate
+    said through ``note``; see :mod:`msg_adapters.csv_io`). Raises RecordingFileError naming the
+    path for anything wrong with the file's contents.
     """
     path = Path(path)
     try:
         if path.suffix in TABLE_SUFFIXES:
-            return read_table_recording(path, arm=arm, rate_hz=rate_hz)
+            return read_table_recording(path, arm=arm, rate_hz=rate_hz, note=note)
         return read_bag_recording(path, topic=topic, arm=arm, progress=progress)
     except RecordingError as err:
         raise RecordingFileError(f"{path}: {err}") from err
