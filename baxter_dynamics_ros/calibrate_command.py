@@ -5,7 +5,11 @@ observer (:mod:`baxter_dynamics_ros.collision`, gain ``--gain``) with it over ev
 effects of ``--effects`` compensated, removes the slow bias (``--bias-time-constant``) and writes
 per-joint thresholds a + b|q̇| by the calibration rule of that module (``--margin``;
 ``--consecutive`` samples in a row above before a detection; ``--constant`` for b = 0). The
-recordings must be free of contacts: every residual they hold is taken as normal. Never imports rclpy.
+recordings must be free of contacts: every residual they hold is taken as normal; each must hold
+:data:`~baxter_dynamics_ros.recording.MIN_RECORDING_S` and
+:data:`~baxter_dynamics_ros.recording.MIN_RECORDING_SAMPLES` samples, all of them
+:data:`~baxter_dynamics_ros.recording.MIN_FIT_S` together, and the arm must move and have effort
+(the readers). Never imports rclpy.
 """
 
 from __future__ import annotations
@@ -13,7 +17,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .errors import CollisionError, RecordingFileError
+from .errors import CollisionError, RecordingError, RecordingFileError
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -48,6 +52,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _check_paths(files: list[Path], out: Path, force: bool) -> None:
+    from .output_files import check_outputs
+
     for path in files:
         if not path.exists():
             raise RecordingFileError(f"{path}: no such file or folder")
@@ -55,10 +61,7 @@ def _check_paths(files: list[Path], out: Path, force: bool) -> None:
             raise CollisionError(f"{out}: refusing to write over the input {path}; choose another --out")
     if out.suffix not in (".yaml", ".yml"):
         raise CollisionError(f"{out}: the thresholds file must end in .yaml")
-    if not out.parent.is_dir():
-        raise CollisionError(f"{out}: the folder {out.parent} does not exist")
-    if out.exists() and not force:
-        raise CollisionError(f"{out}: exists already; choose another --out or pass --force")
+    check_outputs([out], replace=force)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -68,9 +71,14 @@ def run(args: argparse.Namespace) -> int:
     from .arm_model import load_arm_model
     from .collision import calibrate, write_thresholds
     from .compensation import load_compensation
+    from .recording import MIN_FIT_S, require_length
 
     _check_paths(args.files, args.out, args.force)
     recordings = [read_recording(p, topic=args.topic, arm=args.arm, rate_hz=args.rate_hz) for p in args.files]
+    try:
+        require_length(list(zip(map(str, args.files), recordings)), "calibration", MIN_FIT_S)
+    except RecordingError as err:
+        raise CollisionError(str(err)) from err
     sides = {rec.side for rec in recordings}
     if len(sides) > 1:
         raise CollisionError("the recordings are of different arms; pass --arm right|left")

@@ -66,6 +66,7 @@ from __future__ import annotations
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -76,7 +77,9 @@ from . import lagrange_euler
 from .arm_model import ArmModel
 from .compensation import Compensation
 from .errors import CollisionError
+from .output_files import staged_outputs
 from .recording import JOINT_SUFFIXES, Recording
+from .yaml_files import read_yaml
 
 __all__ = [
     "DEFAULT_BIAS_TIME_CONSTANT_S",
@@ -463,20 +466,15 @@ class Thresholds:
 
 
 def write_thresholds(path: str | os.PathLike[str], thresholds: Thresholds) -> None:
-    """Write ``thresholds`` as YAML (thresholds.yaml)."""
-    with open(path, "w", encoding="utf-8") as stream:
+    """Write ``thresholds`` as YAML (thresholds.yaml), whole or not at all (:mod:`.output_files`)."""
+    with staged_outputs([Path(path)]) as (staged,), open(staged, "w", encoding="utf-8") as stream:
         stream.write("# Collision thresholds a + b|q̇| per joint, from `baxter-dynamics calibrate`.\n")
         yaml.safe_dump(thresholds.to_dict(), stream, sort_keys=False, allow_unicode=True)
 
 
 def read_thresholds(path: str | os.PathLike[str]) -> Thresholds:
     """The :class:`Thresholds` of a YAML file written by :func:`write_thresholds`."""
-    try:
-        with open(path, encoding="utf-8") as stream:
-            raw = yaml.safe_load(stream)
-    except (OSError, yaml.YAMLError) as err:
-        raise CollisionError(f"{path}: cannot read the thresholds file ({err})") from err
-    return Thresholds.from_dict(raw, str(path))
+    return Thresholds.from_dict(read_yaml(path, CollisionError, "thresholds file"), str(path))
 
 
 def calibrate_thresholds(

@@ -18,12 +18,16 @@ __all__ = [
     "ARM_SIDES",
     "JOINT_SUFFIXES",
     "MIN_MOTION_RAD",
+    "MIN_FIT_S",
+    "MIN_RECORDING_S",
+    "MIN_RECORDING_SAMPLES",
     "OtherArm",
     "Recording",
     "arm_joint_names",
     "detect_arm",
     "estimate_rate_hz",
     "require_activity",
+    "require_length",
 ]
 
 #: The arms, by the prefix of their joint names.
@@ -35,6 +39,14 @@ JOINT_SUFFIXES = ("s0", "s1", "e0", "e1", "w0", "w1", "w2")
 MIN_MOTION_RAD = 0.01
 #: Least correlation of Δq with q̇ Δt for a sample rate estimated from them to be believed.
 MIN_RATE_FIT_CORRELATION = 0.5
+#: The least one recording must hold for the offline methods (``diagnose``, ``calibrate``): 2 s —
+#: four periods of the gap analysis' 2 Hz systematic band, twenty of the diagnosis' 0.1 s
+#: decorrelation time, forty time constants of the momentum observer at its default gain — in
+#: at least 200 samples.
+MIN_RECORDING_S = 2.0
+MIN_RECORDING_SAMPLES = 200
+#: The least data a fit takes in all (the diagnosis' training recordings, a calibration's), s.
+MIN_FIT_S = 10.0
 
 
 def arm_joint_names(side: str) -> tuple[str, ...]:
@@ -133,6 +145,22 @@ def require_activity(side: str, q: np.ndarray, effort: np.ndarray, others: dict[
         raise RecordingError(f"the {side} arm has no effort here (every value is 0){hint}")
 
 
+def require_length(recordings: Sequence[tuple[str, Recording]], what: str, total_s: float = 0.0) -> None:
+    """Refuse (RecordingError) a recording shorter than :data:`MIN_RECORDING_S` or with fewer than
+    :data:`MIN_RECORDING_SAMPLES` samples, and ``recordings`` (label, recording) shorter than
+    ``total_s`` together; ``what`` names their use in the messages (e.g. "test"). Lengths are
+    :attr:`Recording.span_s`."""
+    for label, rec in recordings:
+        if rec.span_s < MIN_RECORDING_S or len(rec) < MIN_RECORDING_SAMPLES:
+            raise RecordingError(
+                f"{label}: {len(rec)} samples, {rec.span_s:.2f} s; a {what} recording needs at least "
+                f"{MIN_RECORDING_SAMPLES} samples and {MIN_RECORDING_S:g} s"
+            )
+    total = sum(rec.span_s for _, rec in recordings)
+    if total < total_s:
+        raise RecordingError(f"the {what} recordings hold {total:.2f} s together; at least {total_s:g} s are needed")
+
+
 @dataclass(frozen=True)
 class Recording:
     """Joint states of one arm, sample by sample.
@@ -195,6 +223,11 @@ class Recording:
     def rate_hz(self) -> float:
         """The median sample rate in Hz."""
         return 1e9 / float(np.median(np.diff(self.stamps_ns)))
+
+    @property
+    def span_s(self) -> float:
+        """The time the samples cover, s: N sample periods (the median one), one more than duration_s."""
+        return len(self) / self.rate_hz
 
     @property
     def duration_s(self) -> float:

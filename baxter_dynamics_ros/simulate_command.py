@@ -2,8 +2,9 @@
 
 Writes ``/robot/joint_states`` as the robot publishes it (Baxter's 21 joints with the grippers' fingers, the simulated arm
 moving, the rest still) to ``--out``: a ``.mcap`` ROS 2 bag or a ``.csv`` / ``.parquet`` table
-(the generic layout of :mod:`msg_adapters.csv_io`), written whole or not at all, and the
-ground truth beside it as ``<out>.truth.json`` (spec, effects with parameters, seed, tracking).
+(the generic layout of :mod:`msg_adapters.csv_io`), and the ground truth beside it as
+``<out>.truth.json`` (spec, effects with parameters, seed, tracking): both or neither
+(:mod:`baxter_dynamics_ros.output_files`).
 
 The effects spec (``--effects``) is a YAML file with up to four sections; see
 ``config/effects_example.yaml``::
@@ -78,10 +79,12 @@ def run(args: argparse.Namespace) -> int:
     from msg_adapters.recording_files import check_output, write_joint_states
 
     from .effects import effects_from_dict
+    from .output_files import check_outputs, staged_outputs
     from .simulator import ControllerGains, SensorModel, SimulationSpec, simulate, write_ground_truth
 
-    check_output(args.out, replace=args.force)  # before simulating: fail fast
     truth = ground_truth_path(args.out)
+    check_output(args.out, replace=args.force)  # before simulating: fail fast
+    check_outputs([truth], replace=args.force)
     sections = load_spec_file(args.effects) if args.effects is not None else {s: ([] if s == "collisions" else {}) for s in SPEC_SECTIONS}
     where = str(args.effects or "effects spec")
     spec = SimulationSpec(
@@ -102,11 +105,11 @@ def run(args: argparse.Namespace) -> int:
     )
     result = simulate(spec)
     states = result.robot_joint_states()
-    write_joint_states(
-        args.out, states.stamps_ns, states.names, states.position, states.velocity, states.effort,
-        topic=args.topic, replace=args.force,
-    )
-    write_ground_truth(truth, result)
+    with staged_outputs([args.out, truth]) as (staged_out, staged_truth):  # both or neither
+        write_joint_states(
+            staged_out, states.stamps_ns, states.names, states.position, states.velocity, states.effort, topic=args.topic
+        )
+        write_ground_truth(staged_truth, result)
     effects = ", ".join(e.name for e in spec.effects) or "none"
     print(f"{args.out}: {spec.samples} samples; effects: {effects}; ground truth: {truth}")
     return 0

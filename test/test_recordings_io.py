@@ -19,7 +19,7 @@ from recorded_bags import (
     write_reference_bag,
 )
 
-from baxter_dynamics_ros.errors import RecordingError, RecordingFileError
+from baxter_dynamics_ros.errors import OutputError, RecordingError, RecordingFileError
 from baxter_dynamics_ros.recording import Recording, arm_joint_names, detect_arm
 from msg_adapters.bag_io import read_bag_recording, read_joint_state_messages
 from msg_adapters.csv_io import read_table_recording
@@ -386,7 +386,7 @@ def test_joint_states_written_by_extension_read_back_exactly(tmp_path: Path, suf
     write_joint_states(path, states["stamps_ns"], BAXTER_JOINTS, states["position"], states["velocity"], states["effort"])
     assert listing_of(tmp_path) == [path.name]
     assert_recording_is(read_recording(path), states, "right")
-    with pytest.raises(RecordingFileError, match="exists already; choose another output or pass --force"):
+    with pytest.raises(OutputError, match="exists already; choose another --out or pass --force"):
         write_joint_states(path, states["stamps_ns"], BAXTER_JOINTS, states["position"], states["velocity"], states["effort"])
 
 
