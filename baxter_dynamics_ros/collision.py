@@ -421,6 +421,8 @@ class Thresholds:
         object.__setattr__(self, "offset_nm", _joint_vector(self.offset_nm, "offset_nm", positive=True))
         object.__setattr__(self, "slope_nm_s_rad", _joint_vector(self.slope_nm_s_rad, "slope_nm_s_rad", positive=False))
         object.__setattr__(self, "gain_1_s", _joint_vector(self.gain_1_s, "gain_1_s", positive=True))
+        if isinstance(self.files, (str, bytes)) or not isinstance(self.files, (list, tuple)):
+            raise CollisionError(f"files: expected a list of file names, got {self.files!r}")
         object.__setattr__(self, "files", tuple(str(f) for f in self.files))
         object.__setattr__(self, "consecutive", _consecutive(self.consecutive))
         object.__setattr__(self, "effort_delay_s", _effort_delay(self.effort_delay_s))

@@ -54,15 +54,23 @@ def ground_truth_path(out: Path) -> Path:
     return out.with_name(out.name + ".truth.json")
 
 
-def load_spec_file(path: Path) -> dict:
-    """The sections of an effects spec file, each a mapping (missing ones empty)."""
-    from .effects import read_spec_file
+def load_spec(path: Path | None) -> dict:
+    """The simulation settings of an effects spec file (None: the rigid-body arm, no collisions), as
+    :class:`~baxter_dynamics_ros.simulator.SimulationSpec` arguments: effects, sensor, controller, collisions."""
+    from .effects import effects_from_dict, read_spec_file
+    from .simulator import ControllerGains, SensorModel
 
-    raw = read_spec_file(path)
+    raw = {} if path is None else read_spec_file(path)
     unknown = set(raw) - set(SPEC_SECTIONS)
     if unknown:
         raise EffectSpecError(f"{path}: unknown sections {sorted(unknown)}; a spec has {', '.join(SPEC_SECTIONS)}")
-    return {section: raw.get(section) or ([] if section == "collisions" else {}) for section in SPEC_SECTIONS}
+    where = str(path or "effects spec")
+    return {
+        "effects": effects_from_dict(raw.get("effects") or {}, f"{where}: effects"),
+        "sensor": SensorModel.from_dict(raw.get("sensor") or {}, f"{where}: sensor"),
+        "controller": ControllerGains.from_dict(raw.get("controller") or {}, f"{where}: controller"),
+        "collisions": _collisions(raw.get("collisions") or [], where),
+    }
 
 
 def _collisions(raw, where: str):
@@ -78,26 +86,16 @@ def run(args: argparse.Namespace) -> int:
     """Simulate args into args.out and its ground truth; returns 0 (errors raise BaxterDynamicsError)."""
     from msg_adapters.recording_files import check_output, write_joint_states
 
-    from .effects import effects_from_dict
     from .output_files import check_outputs, staged_outputs
-    from .simulator import ControllerGains, SensorModel, SimulationSpec, simulate, write_ground_truth
+    from .simulator import SimulationSpec, simulate, write_ground_truth
 
     truth = ground_truth_path(args.out)
     check_output(args.out, replace=args.force)  # before simulating: fail fast
     check_outputs([truth], replace=args.force)
-    sections = load_spec_file(args.effects) if args.effects is not None else {s: ([] if s == "collisions" else {}) for s in SPEC_SECTIONS}
-    where = str(args.effects or "effects spec")
     spec = SimulationSpec(
-        trajectory=args.trajectory,
-        duration_s=args.duration,
-        rate_hz=args.rate_hz,
-        seed=args.seed,
-        side=args.arm,
-        effects=effects_from_dict(sections["effects"], f"{where}: effects"),
-        sensor=SensorModel.from_dict(sections["sensor"], f"{where}: sensor"),
-        controller=ControllerGains.from_dict(sections["controller"], f"{where}: controller"),
-        collisions=_collisions(sections["collisions"], where),
-    )
+        trajectory=args.trajectory, duration_s=args.duration, rate_hz=args.rate_hz, seed=args.seed, side=args.arm,
+        **load_spec(args.effects),
+    )  # fmt: skip
     print(
         f"simulating {spec.duration_s:g} s of {spec.trajectory} on the {spec.side} arm, "
         f"RK4 at {spec.physics_rate_hz:g} Hz, recorded at {spec.rate_hz:g} Hz",

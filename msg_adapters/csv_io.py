@@ -49,6 +49,8 @@ __all__ = ["RATE_TOLERANCE", "Note", "joint_state_columns", "read_table_recordin
 
 #: Largest relative difference between a given sample rate and the estimated one that is accepted.
 RATE_TOLERANCE = 0.10
+#: The largest time_s that int64 nanoseconds hold (292 years), s.
+MAX_TIME_S = 9.2e9
 Note = Callable[[str], None]  # takes a one-line message for the user
 #: Column prefixes of q, q̇, effort in each layout.
 LAYOUTS = {"baxter export": ("ang_", "vel_", "torq_"), "generic": ("position_", "velocity_", "effort_")}
@@ -65,21 +67,34 @@ def _read_columns(path: Path) -> dict[str, np.ndarray]:
             table = pq.read_table(path)
         except Exception as err:  # noqa: BLE001 - pyarrow's errors all mean "not a readable Parquet file"
             raise RecordingFileError(f"{path}: cannot read the Parquet file ({err})") from err
-        return {name: table.column(name).to_numpy() for name in table.column_names}
+        columns = {}
+        for name in table.column_names:
+            values = table.column(name).to_numpy(zero_copy_only=False)
+            if name == "stamp_ns":
+                if not (values.dtype.kind == "i" or (values.dtype.kind == "u" and (values < 2**63).all())):
+                    raise RecordingFileError(f"{path}: column stamp_ns must hold integer nanoseconds, got {values.dtype}")
+                columns[name] = values.astype(np.int64)
+                continue
+            try:
+                columns[name] = np.asarray(values, dtype=np.float64)
+            except (TypeError, ValueError) as err:
+                raise RecordingFileError(f"{path}: column {name} does not hold numbers ({err})") from err
+        return columns
     try:
         lines = path.read_text(encoding="utf-8").splitlines()
     except UnicodeDecodeError as err:
         raise RecordingFileError(f"{path}: not a text table ({err})") from err
     if not lines or not lines[0].strip():
         raise RecordingFileError(f"{path}: empty file, expected a header line of column names")
-    if len(lines) < 2:
+    rows = [line for line in lines[1:] if line.strip()]
+    if not rows:
         raise RecordingFileError(f"{path}: no data rows under the header line")
     delimiter = "," if "," in lines[0] else None
     names = [n.strip() for n in lines[0].split(delimiter)]
     try:
-        values = np.loadtxt(lines[1:], delimiter=delimiter, ndmin=2, dtype=np.float64)
+        values = np.loadtxt(rows, delimiter=delimiter, ndmin=2, dtype=np.float64, comments=None)
         stamps = (
-            np.loadtxt(lines[1:], delimiter=delimiter, ndmin=1, dtype=np.int64, usecols=names.index("stamp_ns"))
+            np.loadtxt(rows, delimiter=delimiter, ndmin=1, dtype=np.int64, usecols=names.index("stamp_ns"), comments=None)
             if "stamp_ns" in names
             else None
         )
@@ -125,7 +140,10 @@ def _sample_times_ns(
     if "stamp_ns" in columns:
         return np.asarray(columns["stamp_ns"], dtype=np.int64)
     if "time_s" in columns:
-        return np.round(np.asarray(columns["time_s"], dtype=np.float64) * 1e9).astype(np.int64)
+        time_s = np.asarray(columns["time_s"], dtype=np.float64)
+        if not (np.isfinite(time_s).all() and np.abs(time_s).max() < MAX_TIME_S):
+            raise RecordingFileError(f"{path}: time_s must hold finite times in s, below {MAX_TIME_S:.3g} in size (int64 ns)")
+        return np.round(time_s * 1e9).astype(np.int64)
     if rate_hz is not None and not (np.isfinite(rate_hz) and rate_hz > 0):
         raise RecordingFileError(f"{path}: has no time column and --rate-hz must be a positive number of Hz, got {rate_hz}")
     estimate = estimate_rate_hz(q, qd)
