@@ -3,10 +3,11 @@
 :func:`check_outputs` refuses, before any work, what would make writing fail: a missing folder, a
 file where the folder should be, a folder where a file should be, an existing file (unless
 replacing), a folder the user may not write. :func:`staged_outputs` then hands out fresh paths in
-one temporary folder beside the targets (``.<name>.*.partial``, same filesystem) and, when the block
-succeeds, moves them all into place; if the block, or one of the moves, fails, the files already
-moved are taken back (replaced ones restored) and nothing new is left. A folder of outputs that does
-not exist yet (``diagnose --out DIR``) is staged whole and renamed into place in one step.
+a temporary folder beside the targets (``.<name>.*.partial``, one per target folder, on the same
+filesystem) and, when the block succeeds, moves them all into place; if the block, or one of the
+moves, fails, the files already moved are taken back (replaced ones restored) and nothing new is
+left. A folder of outputs that does not exist yet (``diagnose --out DIR``) is staged whole and
+renamed into place in one step.
 
 Every OSError on the way (no permission, no space, a read-only filesystem) becomes one
 :class:`~baxter_dynamics_ros.errors.OutputError` naming the path.
@@ -105,9 +106,8 @@ def _commit(stagings: dict[Path, Path], where: dict[Path, Path]) -> None:
     try:
         for folder, staging in stagings.items():
             if (staging / folder.name).is_dir() and not folder.exists():
-                undo.append((staging / folder.name, None))  # undone by renaming the folder back
                 os.rename(staging / folder.name, folder)
-                undo[-1] = (folder, staging / folder.name)
+                undo.append((folder, staging / folder.name))  # undone by renaming the folder back
                 continue
             for k, (target, new) in enumerate((t, n) for t, n in where.items() if t.parent == folder):
                 old = None
