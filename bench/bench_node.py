@@ -28,7 +28,7 @@ import tempfile
 import threading
 import time
 from array import array
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -196,11 +196,11 @@ class Bench:
                 break
         raise RuntimeError(f"no answer on {topic} within {timeout_s} s")
 
-    def run(self, topic: str, rate_hz: float, duration_s: float, pid: int) -> Result:
-        n = int(rate_hz * duration_s)
+    def send(self, topic: str, rate_hz: float, n: int, every: int = 0, mark: Callable[[int], None] | None = None) -> np.ndarray:
+        """A new run: n samples on ``topic``'s peer at rate_hz, paced on the monotonic clock;
+        ``mark(samples sent)`` after every ``every`` samples. Returns the send times (n,) ns."""
         self.new_run(n, round(1e9 / rate_hz))
         sent_ns = np.zeros(n, dtype=np.int64)
-        cpu0, wall0 = cpu_s(pid), time.perf_counter()
         start_ns = time.perf_counter_ns()
         for i in range(n):
             delay_ns = start_ns + i * self.period_ns - time.perf_counter_ns()
@@ -208,6 +208,15 @@ class Bench:
                 time.sleep(delay_ns * 1e-9)
             sent_ns[i] = time.perf_counter_ns()
             self.publish(topic, i)
+            if mark is not None and (i + 1) % every == 0:
+                mark(i + 1)
+        return sent_ns
+
+    def run(self, topic: str, rate_hz: float, duration_s: float, pid: int) -> Result:
+        n = int(rate_hz * duration_s)
+        cpu0, wall0 = cpu_s(pid), time.perf_counter()
+        start_ns = time.perf_counter_ns()
+        sent_ns = self.send(topic, rate_hz, n)
         cpu1, wall1 = cpu_s(pid), time.perf_counter()
         end_ns = time.perf_counter_ns()
         time.sleep(DRAIN_S)

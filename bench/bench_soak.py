@@ -62,19 +62,14 @@ def soak(duration_s: float, rate_hz: float, every_s: float) -> tuple[float, list
         bench.wait_matched(RESIDUAL)
         bench.run(RESIDUAL, rate_hz, WARM_UP_S, node.pid)
         reference_mb = rss_mb(node.pid)
-        n, per_row = int(rate_hz * duration_s), int(rate_hz * every_s)
-        bench.new_run(n, round(1e9 / rate_hz))
-        sent_ns = np.zeros(n, dtype=np.int64)
         marks: list[tuple[int, float, float, float]] = []  # (samples sent, time s, RSS MB, CPU s)
         start_ns = time.perf_counter_ns()
-        for i in range(n):
-            delay_ns = start_ns + i * bench.period_ns - time.perf_counter_ns()
-            if delay_ns > 0:
-                time.sleep(delay_ns * 1e-9)
-            sent_ns[i] = time.perf_counter_ns()
-            bench.publish(RESIDUAL, i)
-            if (i + 1) % per_row == 0 or i == 0:
-                marks.append((i + 1, (time.perf_counter_ns() - start_ns) * 1e-9, rss_mb(node.pid), cpu_s(node.pid)["total"]))
+
+        def mark(sent: int) -> None:
+            marks.append((sent, (time.perf_counter_ns() - start_ns) * 1e-9, rss_mb(node.pid), cpu_s(node.pid)["total"]))
+
+        mark(0)
+        sent_ns = bench.send(RESIDUAL, rate_hz, int(rate_hz * duration_s), int(rate_hz * every_s), mark)
         time.sleep(DRAIN_S)
         received = bench.received_ns.copy()
     finally:
@@ -82,7 +77,6 @@ def soak(duration_s: float, rate_hz: float, every_s: float) -> tuple[float, list
         stop_peer(node)
     rows = []
     for (a, t0, _, cpu0), (b, t1, mb, cpu1) in zip(marks, marks[1:]):
-        a = 0 if a == 1 else a
         got = received[a:b] > 0
         latency_ms = (received[a:b][got] - sent_ns[a:b][got]) * 1e-6 if got.any() else np.array([np.nan])
         p50, p99 = np.percentile(latency_ms, [50, 99])

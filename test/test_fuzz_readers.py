@@ -114,25 +114,15 @@ def mutated_yaml(draw, source: str) -> str:
 
 
 @pytest.mark.parametrize("reader", YAML_READERS)
-def test_yaml_readers_on_random_bytes(reader: str) -> None:
+@pytest.mark.parametrize("kind", ["bytes", "text"])
+def test_yaml_readers_on_random_bytes_and_text(reader: str, kind: str) -> None:
     read, _ = YAML_READERS[reader]
+    data = st.binary(max_size=400) if kind == "bytes" else yaml_text | st.text(max_size=100)
 
     @FUZZ
-    @given(st.binary(max_size=400))
-    def check(data: bytes) -> None:
-        _only_our_errors(read, _write("random.yaml", data))
-
-    check()
-
-
-@pytest.mark.parametrize("reader", YAML_READERS)
-def test_yaml_readers_on_random_text(reader: str) -> None:
-    read, _ = YAML_READERS[reader]
-
-    @FUZZ
-    @given(yaml_text | st.text(max_size=100))
-    def check(text: str) -> None:
-        _only_our_errors(read, _write("random.yaml", text))
+    @given(data)
+    def check(content: bytes | str) -> None:
+        _only_our_errors(read, _write("random.yaml", content))
 
     check()
 

@@ -40,15 +40,20 @@ def probe(stamp: int):
     return joint_state(JOINTS, stamp, ZEROS, ZEROS, ZEROS)
 
 
-@pytest.fixture(scope="module")
-def node(ros_client, node_processes) -> LiveNode:
+def start_node(ros_client, node_processes, namespace: str, *ros_args: str) -> LiveNode:
+    """A node in ``namespace`` (its input there too) with fast diagnostics, answering."""
     process = node_processes.start(
-        ["--params-file", str(CONFIG), "-p", f"diagnostics_period_s:={DIAGNOSTICS_PERIOD_S}",
-         "-p", "joint_states_topic:=/absurd/joint_states", "-r", "__ns:=/absurd"]
+        [*ros_args, "-p", f"diagnostics_period_s:={DIAGNOSTICS_PERIOD_S}",
+         "-p", f"joint_states_topic:={namespace}/joint_states", "-r", f"__ns:={namespace}"]
     )  # fmt: skip
-    live = LiveNode(ros_client, process, namespace="/absurd", input_topic="/absurd/joint_states")
+    live = LiveNode(ros_client, process, namespace=namespace, input_topic=f"{namespace}/joint_states")
     live.wait_ready(probe)
     return live
+
+
+@pytest.fixture(scope="module")
+def node(ros_client, node_processes) -> LiveNode:
+    return start_node(ros_client, node_processes, "/absurd", "--params-file", str(CONFIG))
 
 
 def _spoil(samples: Samples, kind: str) -> None:
@@ -99,13 +104,7 @@ def absurd_model_node(ros_client, node_processes, tmp_path_factory: pytest.TempP
     so that plausible speeds give torques at the edge of float64 (1.4 rad/s) or beyond it (2 rad/s)."""
     effects = tmp_path_factory.mktemp("fx") / "effects.yaml"
     effects.write_text("arm: right\neffects:\n  viscous_friction: {damping_nm_s_rad: [1.0e+308, 1.0e+308, 1.0e+308, 1.0e+308, 1.0e+308, 1.0e+308, 1.0e+308]}\n")
-    process = node_processes.start(
-        ["-p", f"effects_file:={effects}", "-p", f"diagnostics_period_s:={DIAGNOSTICS_PERIOD_S}",
-         "-p", "joint_states_topic:=/overflow/joint_states", "-r", "__ns:=/overflow"]
-    )  # fmt: skip
-    live = LiveNode(ros_client, process, namespace="/overflow", input_topic="/overflow/joint_states")
-    live.wait_ready(probe)
-    return live
+    return start_node(ros_client, node_processes, "/overflow", "-p", f"effects_file:={effects}")
 
 
 def _steady(samples: Samples, speed_rad_s: float) -> list:
@@ -183,9 +182,6 @@ def test_every_numeric_parameter_shows_its_range_and_refuses_values_outside(node
 
 
 def test_an_override_naming_no_parameter_is_warned_about(ros_client, node_processes) -> None:
-    process = node_processes.start(["-p", "cuttof_hz:=5.0", "-p", "joint_states_topic:=/typo/joint_states", "-r", "__ns:=/typo"])
-    typo = LiveNode(ros_client, process, namespace="/typo", input_topic="/typo/joint_states")
-    typo.wait_ready(probe)
-    output = process.output()
-    assert "ignoring parameters this node does not have: cuttof_hz (cuttof_hz: did you mean cutoff_hz?)" in output
-    assert process.stop() == 0
+    typo = start_node(ros_client, node_processes, "/typo", "-p", "cuttof_hz:=5.0")
+    assert "ignoring parameters this node does not have: cuttof_hz (cuttof_hz: did you mean cutoff_hz?)" in typo.process.output()
+    assert typo.process.stop() == 0
