@@ -14,10 +14,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from . import lagrange_euler
 from .errors import ModelFileError
+from .yaml_files import read_yaml
 
 __all__ = [
     "ArmModel",
@@ -193,13 +193,7 @@ def load_arm_model(arm: str | os.PathLike[str] = "right") -> ArmModel:
         path = config_dir() / f"baxter_{arm}_arm.yaml"
     else:
         path = Path(arm)
-    try:
-        raw = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except OSError as err:
-        raise ModelFileError(f"{path}: cannot read the model file ({err.strerror})") from err
-    except yaml.YAMLError as err:
-        raise ModelFileError(f"{path}: not valid YAML ({err})") from err
-    return _parse(raw, str(path))
+    return _parse(read_yaml(path, ModelFileError, "model file"), str(path))
 
 
 class _Fields:

@@ -5,7 +5,11 @@ observer (:mod:`baxter_dynamics_ros.collision`, gain ``--gain``) with it over ev
 effects of ``--effects`` compensated, removes the slow bias (``--bias-time-constant``) and writes
 per-joint thresholds a + b|q̇| by the calibration rule of that module (``--margin``;
 ``--consecutive`` samples in a row above before a detection; ``--constant`` for b = 0). The
-recordings must be free of contacts: every residual they hold is taken as normal. Never imports rclpy.
+recordings must be free of contacts: every residual they hold is taken as normal; each must hold
+:data:`~baxter_dynamics_ros.recording.MIN_RECORDING_S` and
+:data:`~baxter_dynamics_ros.recording.MIN_RECORDING_SAMPLES` samples, all of them
+:data:`~baxter_dynamics_ros.recording.MIN_FIT_S` together, and the arm must move and have effort
+(the readers). Never imports rclpy.
 """
 
 from __future__ import annotations
@@ -13,13 +17,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .errors import CollisionError, RecordingFileError
+from .errors import CollisionError, RecordingError, RecordingFileError
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The command's options."""
     from msg_adapters.bag_io import DEFAULT_TOPIC
-    from msg_adapters.csv_io import DEFAULT_RATE_HZ
 
     from .collision import DEFAULT_BIAS_TIME_CONSTANT_S, DEFAULT_CONSECUTIVE, DEFAULT_GAIN_1_S, DEFAULT_MARGIN
 
@@ -44,11 +47,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--arm", choices=("right", "left"), help="arm (default: from the joint names)")
     parser.add_argument("--model", type=Path, metavar="YAML", help="arm model file (default: the package's model of the arm)")
     parser.add_argument("--topic", default=DEFAULT_TOPIC, help=f"joint-state topic of bags (default {DEFAULT_TOPIC})")
-    parser.add_argument("--rate", type=float, default=DEFAULT_RATE_HZ, help=f"sample rate of tables without time column, Hz (default {DEFAULT_RATE_HZ:g})")
+    parser.add_argument("--rate-hz", type=float, metavar="HZ", help="sample rate of tables without a time column, Hz (default: estimated from position and velocity)")
     parser.add_argument("--force", action="store_true", help="replace an existing thresholds file")
 
 
 def _check_paths(files: list[Path], out: Path, force: bool) -> None:
+    from .output_files import check_outputs
+
     for path in files:
         if not path.exists():
             raise RecordingFileError(f"{path}: no such file or folder")
@@ -56,10 +61,7 @@ def _check_paths(files: list[Path], out: Path, force: bool) -> None:
             raise CollisionError(f"{out}: refusing to write over the input {path}; choose another --out")
     if out.suffix not in (".yaml", ".yml"):
         raise CollisionError(f"{out}: the thresholds file must end in .yaml")
-    if not out.parent.is_dir():
-        raise CollisionError(f"{out}: the folder {out.parent} does not exist")
-    if out.exists() and not force:
-        raise CollisionError(f"{out}: exists already; choose another --out or pass --force")
+    check_outputs([out], replace=force)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -69,9 +71,14 @@ def run(args: argparse.Namespace) -> int:
     from .arm_model import load_arm_model
     from .collision import calibrate, write_thresholds
     from .compensation import load_compensation
+    from .recording import MIN_FIT_S, require_length
 
     _check_paths(args.files, args.out, args.force)
-    recordings = [read_recording(p, topic=args.topic, arm=args.arm, rate_hz=args.rate) for p in args.files]
+    recordings = [read_recording(p, topic=args.topic, arm=args.arm, rate_hz=args.rate_hz) for p in args.files]
+    try:
+        require_length(list(zip(map(str, args.files), recordings)), "calibration", MIN_FIT_S)
+    except RecordingError as err:
+        raise CollisionError(str(err)) from err
     sides = {rec.side for rec in recordings}
     if len(sides) > 1:
         raise CollisionError("the recordings are of different arms; pass --arm right|left")

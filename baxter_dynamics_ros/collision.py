@@ -66,6 +66,7 @@ from __future__ import annotations
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -76,7 +77,9 @@ from . import lagrange_euler
 from .arm_model import ArmModel
 from .compensation import Compensation
 from .errors import CollisionError
+from .output_files import staged_outputs
 from .recording import JOINT_SUFFIXES, Recording
+from .yaml_files import read_yaml
 
 __all__ = [
     "DEFAULT_BIAS_TIME_CONSTANT_S",
@@ -418,6 +421,8 @@ class Thresholds:
         object.__setattr__(self, "offset_nm", _joint_vector(self.offset_nm, "offset_nm", positive=True))
         object.__setattr__(self, "slope_nm_s_rad", _joint_vector(self.slope_nm_s_rad, "slope_nm_s_rad", positive=False))
         object.__setattr__(self, "gain_1_s", _joint_vector(self.gain_1_s, "gain_1_s", positive=True))
+        if isinstance(self.files, (str, bytes)) or not isinstance(self.files, (list, tuple)):
+            raise CollisionError(f"files: expected a list of file names, got {self.files!r}")
         object.__setattr__(self, "files", tuple(str(f) for f in self.files))
         object.__setattr__(self, "consecutive", _consecutive(self.consecutive))
         object.__setattr__(self, "effort_delay_s", _effort_delay(self.effort_delay_s))
@@ -463,20 +468,15 @@ class Thresholds:
 
 
 def write_thresholds(path: str | os.PathLike[str], thresholds: Thresholds) -> None:
-    """Write ``thresholds`` as YAML (thresholds.yaml)."""
-    with open(path, "w", encoding="utf-8") as stream:
+    """Write ``thresholds`` as YAML (thresholds.yaml), whole or not at all (:mod:`.output_files`)."""
+    with staged_outputs([Path(path)]) as (staged,), open(staged, "w", encoding="utf-8") as stream:
         stream.write("# Collision thresholds a + b|q̇| per joint, from `baxter-dynamics calibrate`.\n")
         yaml.safe_dump(thresholds.to_dict(), stream, sort_keys=False, allow_unicode=True)
 
 
 def read_thresholds(path: str | os.PathLike[str]) -> Thresholds:
     """The :class:`Thresholds` of a YAML file written by :func:`write_thresholds`."""
-    try:
-        with open(path, encoding="utf-8") as stream:
-            raw = yaml.safe_load(stream)
-    except (OSError, yaml.YAMLError) as err:
-        raise CollisionError(f"{path}: cannot read the thresholds file ({err})") from err
-    return Thresholds.from_dict(raw, str(path))
+    return Thresholds.from_dict(read_yaml(path, CollisionError, "thresholds file"), str(path))
 
 
 def calibrate_thresholds(

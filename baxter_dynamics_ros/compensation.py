@@ -43,10 +43,14 @@ class Compensation:
         self.ignored = tuple(e.name for e in effects if e.name in NOT_COMPENSATED)
 
     def torque(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
-        """Σ of the additive effects' shares of the effort, N·m, shape of q; inputs (..., 7)."""
+        """Σ of the additive effects' shares of the effort, N·m, shape of q; inputs (..., 7).
+
+        Absurd parameters (a damping of 1e308) overflow to inf without a warning on stderr: the
+        callers check their results (the live pipeline resets and counts it)."""
         out = np.zeros(np.shape(q))
-        for effect in self.additive:
-            out += effect.torque(self.arm, q, qd, qdd)
+        with np.errstate(over="ignore", invalid="ignore"):
+            for effect in self.additive:
+                out += effect.torque(self.arm, q, qd, qdd)
         return out
 
 

@@ -112,7 +112,7 @@ def live_node(bag: Path, effects_file: Path | None = None) -> np.ndarray:
         while node.count_publishers("/baxter_dynamics/residual") == 0 and time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.1)
         player = subprocess.Popen(
-            [sys.executable, "-m", "baxter_dynamics_ros.cli", "play", str(bag), "--rate", "2", "--wait-for-subscribers", "10"],
+            [sys.executable, "-m", "baxter_dynamics_ros.cli", "play", str(bag), "--speed", "2", "--wait-for-subscribers", "10"],
             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
         )
         while player.poll() is None:

@@ -2,14 +2,21 @@
 
 Parameters are fitted on ``--train`` only; every "after" figure is measured on ``--test``. Without
 ``--test``, the last training file is held out (or, with a single file, its last quarter: whole
-contiguous blocks, never interleaved samples). Writes ``DIR/diagnosis.json``, ``DIR/report.html``
+contiguous blocks, never interleaved samples). Refused: a recording given twice (the same file, or
+the same samples, in ``--train`` and ``--test`` or twice in ``--train``); a recording shorter than
+:data:`~baxter_dynamics_ros.recording.MIN_RECORDING_S` or with fewer than
+:data:`~baxter_dynamics_ros.recording.MIN_RECORDING_SAMPLES` samples; training data shorter than
+:data:`~baxter_dynamics_ros.recording.MIN_FIT_S` in all; an arm that does not move or has no effort
+(the readers). Writes ``DIR/diagnosis.json``, ``DIR/report.html``
 with its PNG plots and ``DIR/effects.yaml`` (for the node's ``effects_file``). Never imports rclpy.
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
 import sys
+from collections.abc import Hashable
 from pathlib import Path
 
 from .errors import DiagnosisError, RecordingFileError
@@ -18,7 +25,6 @@ from .errors import DiagnosisError, RecordingFileError
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The command's options."""
     from msg_adapters.bag_io import DEFAULT_TOPIC
-    from msg_adapters.csv_io import DEFAULT_RATE_HZ
 
     parser.add_argument("--train", type=Path, nargs="+", required=True, metavar="FILE", help="recordings to fit on (bags or tables)")
     parser.add_argument("--test", type=Path, nargs="+", default=[], metavar="FILE", help="held-out recordings to measure on")
@@ -26,13 +32,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--arm", choices=("right", "left"), help="arm to diagnose (default: from the joint names)")
     parser.add_argument("--model", type=Path, metavar="YAML", help="arm model file (default: the package's model of the arm)")
     parser.add_argument("--topic", default=DEFAULT_TOPIC, help=f"joint-state topic of bags (default {DEFAULT_TOPIC})")
-    parser.add_argument("--rate", type=float, default=DEFAULT_RATE_HZ, help=f"sample rate of tables without time column, Hz (default {DEFAULT_RATE_HZ:g})")
+    parser.add_argument("--rate-hz", type=float, metavar="HZ", help="sample rate of tables without a time column, Hz (default: estimated from position and velocity)")
     parser.add_argument("--force", action="store_true", help="replace the outputs of an earlier diagnosis in DIR")
     parser.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None, help="progress bar on stderr (default: when stderr is a terminal)")
 
 
 def _check_paths(inputs: list[Path], out: Path, force: bool) -> None:
     from .diagnosis_report import OUTPUT_FILES
+    from .output_files import check_outputs
 
     for path in inputs:
         if not path.exists():
@@ -41,9 +48,7 @@ def _check_paths(inputs: list[Path], out: Path, force: bool) -> None:
     for path in inputs:
         if path.resolve() in targets or path.resolve() == out.resolve():
             raise DiagnosisError(f"{out}: refusing to write over the input {path}; choose another --out")
-    existing = [name for name in OUTPUT_FILES if (out / name).exists()]
-    if existing and not force:
-        raise DiagnosisError(f"{out}: holds an earlier diagnosis ({', '.join(existing)}); pass --force to replace it")
+    check_outputs([out / name for name in OUTPUT_FILES], replace=force)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -56,16 +61,20 @@ def run(args: argparse.Namespace) -> int:
     from .progress import ProgressBar
 
     _check_paths([*args.train, *args.test], args.out, args.force)
+    given = (("--train", args.train), ("--test", args.test))
+    _refuse_repeats([(option, str(p), _file_id(p)) for option, paths in given for p in paths], "is the same file as")
     show = sys.stderr.isatty() if args.progress is None else args.progress
 
     def read(path: Path):
-        return str(path), read_recording(path, topic=args.topic, arm=args.arm, rate_hz=args.rate)
+        return str(path), read_recording(path, topic=args.topic, arm=args.arm, rate_hz=args.rate_hz)
 
     train = [read(p) for p in args.train]
     test = [read(p) for p in args.test]
     sides = {rec.side for _, rec in (*train, *test)}
     if len(sides) > 1:
         raise DiagnosisError("the recordings are of different arms; pass --arm right|left")
+    read_in = (("--train", train), ("--test", test))
+    _refuse_repeats([(o, label, _fingerprint(rec)) for o, recs in read_in for label, rec in recs], "holds the same samples as")
     if not test:
         if len(train) > 1:
             test = [train.pop()]
@@ -84,13 +93,44 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _refuse_repeats(items: list[tuple[str, str, Hashable]], same: str) -> None:
+    """Refuse a recording given twice, within --train or in --train and --test: a held-out figure on
+    fitted data, or a cross-validation fold inside its own training set, would lie.
+
+    items: (option, label, key) of every recording; equal keys are the same recording."""
+    seen: dict[Hashable, tuple[str, str]] = {}
+    for option, label, key in items:
+        if key in seen:
+            first_option, first = seen[key]
+            fitted = "held-out data must not have been fitted on; " if option != first_option else ""
+            raise DiagnosisError(f"{label} (in {option}) {same} {first} (in {first_option}): {fitted}give each recording once")
+        seen[key] = (option, label)
+
+
+def _file_id(path: Path) -> tuple[int, int]:
+    """(device, inode) of a file or bag folder: equal for two names of one file."""
+    st = path.stat()
+    return st.st_dev, st.st_ino
+
+
+def _fingerprint(rec) -> str:
+    """A digest of a recording's samples (q, q̇, effort): equal for copies of one recording."""
+    digest = hashlib.sha256()
+    for array in (rec.q, rec.qd, rec.effort):
+        digest.update(array.tobytes())
+    return digest.hexdigest()
+
+
 def _split_last_quarter(label, rec):
-    from .recording import Recording
+    from .recording import MIN_RECORDING_S, MIN_RECORDING_SAMPLES, Recording
 
     n = len(rec)
     cut = (3 * n) // 4
-    if n - cut < 200:
-        raise DiagnosisError(f"{label}: {n} samples are too few to hold out a block; give --test data")
+    if n - cut < MIN_RECORDING_SAMPLES or rec.span_s / 4 < MIN_RECORDING_S:
+        raise DiagnosisError(
+            f"{label}: {n} samples, {rec.span_s:.2f} s, are too few to hold out its last quarter "
+            f"({MIN_RECORDING_SAMPLES} samples and {MIN_RECORDING_S:g} s); give --test data"
+        )
 
     def part(a: int, b: int) -> Recording:
         return Recording(rec.side, rec.joint_names, rec.stamps_ns[a:b], rec.q[a:b], rec.qd[a:b], rec.effort[a:b])

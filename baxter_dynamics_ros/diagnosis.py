@@ -53,12 +53,12 @@ from .effects import (
     TorqueOffset,
     ViscousFriction,
 )
-from .errors import DiagnosisError
+from .errors import DiagnosisError, RecordingError
 from .gap_analysis import GapSummary, summarise_gap
 from .log_cholesky import pseudo_from_log_cholesky
-from .recording import Recording
+from .recording import MIN_FIT_S, Recording, require_length
 
-__all__ = ["CANDIDATE_NAMES", "MIN_RECORDING_S", "MIN_RECORDING_SAMPLES", "STABLE_FRACTION", "DiagnosisResult", "EffectReport", "diagnose"]
+__all__ = ["CANDIDATE_NAMES", "STABLE_FRACTION", "DiagnosisResult", "EffectReport", "diagnose"]
 
 #: The candidate effects: every effect of the library, in its order.
 CANDIDATE_NAMES = tuple(EFFECTS)
@@ -68,10 +68,6 @@ BLOCKS_PER_RECORDING = 4
 STABLE_FRACTION = 0.75
 #: A joint's held-out RMS that changes by less than this fraction counts as unchanged.
 VERDICT_TOLERANCE = 0.01
-#: What a recording needs (each training block must span several decorrelation times, the
-#: q̇ filter needs its padding, and the regime statistics their bins).
-MIN_RECORDING_SAMPLES = 200
-MIN_RECORDING_S = 2.0
 
 
 @dataclass(frozen=True)
@@ -219,14 +215,16 @@ class DiagnosisResult:
 
 
 # ----------------------------------------------------------------------------- helpers
-def _check(arm: ArmModel, label: str, rec: Recording) -> None:
-    if rec.side != arm.side:
-        raise DiagnosisError(f"{label}: a {rec.side}-arm recording, but the model is of the {arm.side} arm")
-    if len(rec) < MIN_RECORDING_SAMPLES or rec.duration_s < MIN_RECORDING_S:
-        raise DiagnosisError(
-            f"{label}: {len(rec)} samples over {rec.duration_s:.2f} s; the diagnosis needs at least "
-            f"{MIN_RECORDING_SAMPLES} samples and {MIN_RECORDING_S:g} s per recording"
-        )
+def _check(arm: ArmModel, train: Sequence[tuple[str, Recording]], test: Sequence[tuple[str, Recording]]) -> None:
+    """The recordings are of the model's arm and as long as the method needs (:func:`require_length`)."""
+    for label, rec in (*train, *test):
+        if rec.side != arm.side:
+            raise DiagnosisError(f"{label}: a {rec.side}-arm recording, but the model is of the {arm.side} arm")
+    try:
+        require_length(train, "training", MIN_FIT_S)
+        require_length(test, "test")
+    except RecordingError as err:
+        raise DiagnosisError(str(err)) from err
 
 
 def _short(names: Sequence[str]) -> str:
@@ -338,15 +336,15 @@ def diagnose(
 ) -> DiagnosisResult:
     """Diagnose the gap of ``arm``'s rigid model on recordings: fit on ``train``, measure on ``test``.
 
-    train, test: (label, Recording) pairs of the arm's side, each at least MIN_RECORDING_SAMPLES
-    samples and MIN_RECORDING_S long. Cross-validation leaves one training recording out; with a
+    train, test: (label, Recording) pairs of the arm's side, each at least
+    :data:`~baxter_dynamics_ros.recording.MIN_RECORDING_SAMPLES` samples and ``MIN_RECORDING_S``
+    long, the training ones ``MIN_FIT_S`` together. Cross-validation leaves one training recording out; with a
     single one, one of its four contiguous blocks.
     """
     tick = progress or (lambda _done, _total: None)
     if not train or not test:
         raise DiagnosisError("need at least one training and one test recording")
-    for label, rec in (*train, *test):
-        _check(arm, label, rec)
+    _check(arm, train, test)
     layout = column_layout()
     active = active_columns(arm, layout)
     cutoff = choose_cutoff(arm, [r for _, r in train])

@@ -17,6 +17,7 @@ import yaml
 
 from .diagnosis import STABLE_FRACTION, DiagnosisResult
 from .effects import effects_to_dict
+from .output_files import staged_outputs
 
 __all__ = ["effects_yaml", "write_diagnosis"]
 
@@ -280,14 +281,19 @@ def effects_yaml(result: DiagnosisResult) -> str:
 
 
 def write_diagnosis(result: DiagnosisResult, out_dir: str | os.PathLike[str]) -> dict[str, Path]:
-    """Write every output file into out_dir (created if needed); returns them by name."""
+    """Write every output file into out_dir (created if needed; its parent must exist), all or
+    none of them (:mod:`.output_files`); returns them by name."""
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    paths = {name: out / name for name in OUTPUT_FILES}
+    targets = {name: out / name for name in OUTPUT_FILES}
+    with staged_outputs(list(targets.values())) as staged:
+        _write_all(result, dict(zip(targets, staged)))
+    return targets
+
+
+def _write_all(result: DiagnosisResult, paths: dict[str, Path]) -> None:
     paths["diagnosis.json"].write_text(json.dumps(result.to_dict(), indent=2), encoding="utf-8")
     paths["effects.yaml"].write_text(effects_yaml(result), encoding="utf-8")
     _plot_residuals(result, paths["residual_over_time.png"])
     _plot_regimes(result, paths["regimes.png"])
     _plot_before_after(result, paths["before_after.png"])
     paths["report.html"].write_text(_html(result, paths), encoding="utf-8")
-    return paths

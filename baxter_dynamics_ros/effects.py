@@ -41,7 +41,6 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
-import yaml
 from numba import vectorize
 
 from . import lagrange_euler
@@ -49,6 +48,7 @@ from .acceleration import zero_phase_acceleration
 from .arm_model import ArmModel, LinkInertial, link_from_parameters, link_parameters
 from .errors import EffectSpecError
 from .recording import JOINT_SUFFIXES
+from .yaml_files import read_yaml
 
 __all__ = [
     "EFFECTS",
@@ -625,16 +625,9 @@ def effects_to_dict(effects: tuple[Effect, ...]) -> dict[str, dict[str, float | 
 
 
 def read_spec_file(path: str | os.PathLike[str]) -> dict[str, Any]:
-    """A YAML (or JSON) spec file as a mapping; raises EffectSpecError naming the path."""
-    try:
-        with open(path, encoding="utf-8") as stream:
-            raw = yaml.safe_load(stream)
-    except OSError as err:
-        raise EffectSpecError(f"{path}: cannot read the spec file ({err.strerror})") from err
-    except yaml.YAMLError as err:
-        raise EffectSpecError(f"{path}: not valid YAML ({err})") from err
-    if raw is None:
-        return {}
+    """A YAML (or JSON) spec file as a mapping; raises EffectSpecError naming the path (also for
+    an empty file: "no effects" is said by leaving the file out, or by ``effects: {}``)."""
+    raw = read_yaml(path, EffectSpecError, "effects file")
     if not isinstance(raw, dict):
         raise EffectSpecError(f"{path}: expected a mapping with an 'effects' section")
     return raw

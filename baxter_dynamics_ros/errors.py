@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-__all__ = ["BaxterDynamicsError", "ModelFileError", "InputShapeError", "RecordingError", "RecordingFileError", "EffectSpecError", "SimulationError", "PlaybackError", "SettingsError", "DiagnosisError", "CollisionError"]
+__all__ = ["BaxterDynamicsError", "ModelFileError", "InputShapeError", "RecordingError", "RecordingFileError", "EffectSpecError", "SimulationError", "PlaybackError", "SettingsError", "DiagnosisError", "CollisionError", "OutputError"]
 
 
 class BaxterDynamicsError(Exception):
@@ -47,3 +47,7 @@ class DiagnosisError(BaxterDynamicsError):
 
 class CollisionError(BaxterDynamicsError, ValueError):
     """Collision monitoring cannot run as asked: bad thresholds file, gains or calibration data."""
+
+
+class OutputError(BaxterDynamicsError):
+    """An output cannot be written: a folder or file in the way, no permission, no space."""

@@ -7,6 +7,11 @@ the fields of :class:`~baxter_dynamics_ros.node_settings.NodeSettings` (arm, mod
 effects_file, joint_states_topic, qos_depth, estimator, cutoff_hz, diagnostics_period_s,
 observer_gain_1_s, thresholds_file, calibration_window_s); every
 value is validated when set, and only ``estimator`` and ``cutoff_hz`` may change while running.
+Numeric parameters have ranges, in their ParameterDescriptor (``ros2 param describe`` shows them;
+a value outside is refused, at start-up with one ``ERROR:`` line): qos_depth 1–10000,
+cutoff_hz 0.1–1000 Hz, diagnostics_period_s 0.05–3600 s, observer_gain_1_s 0.1–1000 1/s,
+calibration_window_s 1–60 s. An override naming no parameter of the node (a misspelling) is
+warned about at start-up, with the closest name.
 
 Topics (sensor_msgs/JointState; outputs carry the arm's 7 joints, the input's header stamp, and
 the sample's position and velocity):
@@ -41,7 +46,14 @@ samples buffered for calibration. With ``use_sim_time`` the node
 runs on /clock; a backwards jump of that clock (a recording looping) resets the estimator, as does
 a header stamp going backwards. Bad samples are skipped, counted and warned about at most once per
 second per cause (see :class:`~baxter_dynamics_ros.residuals.SkipReason`); the node never stops
-on input.
+on input. That includes samples no real Baxter can give (``implausible_input``): a joint angle
+more than 0.1 rad beyond the model's joint limits, a speed above 3 × the joint's velocity limit
+(4.5 rad/s at s0–e1, 12 rad/s at the wrist), an effort above 3 × its effort limit (150, 300, 150,
+150 N·m at s0–e1, 45 N·m at the wrist); the limits are the URDF's, the real recordings reach 1.34 ×
+a velocity limit and 0.31 × an effort limit. Such a sample never reaches the q̈ filter or the
+observer: the outputs of the next samples are those the core gives without it. Should a state
+still become non-finite, it is reset and counted (``resets_total.non_finite_state``), and a
+non-finite residual RMS is never reported OK.
 
 Speed: joint states are taken as CDR bytes by a thread of their own (:class:`SubscriptionThread`),
 not by the executor, whose Python bookkeeping costs ~0.2 ms per wake-up — a fifth of a core at
@@ -56,6 +68,8 @@ This module owns the ROS objects and nothing else: the work is done by
 
 from __future__ import annotations
 
+import dataclasses
+import difflib
 import functools
 import sys
 import threading
@@ -64,7 +78,7 @@ from collections.abc import Callable, Sequence
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
 from rclpy.callback_groups import CallbackGroup
 from rclpy.clock import Clock, ClockType, JumpThreshold, TimeJump
 from rclpy.context import Context
@@ -163,10 +177,9 @@ class DynamicsNode(Node):
         # Registered before declaring, so start-up overrides are validated like later changes.
         self.add_on_set_parameters_callback(self.on_set_parameters)
         for spec in NodeSettings.fields():
-            live = spec.metadata["live"]
-            help_text = spec.metadata["help"] + ("" if live else " (read at start-up)")
-            self.declare_parameter(spec.name, spec.default, ParameterDescriptor(description=help_text, read_only=not live))
+            self.declare_parameter(spec.name, spec.default, _descriptor(spec))
         settings = self._settings = NodeSettings(**{s.name: self.get_parameter(s.name).value for s in NodeSettings.fields()})
+        self._warn_unknown_overrides()
 
         arm = load_arm_model(settings.model_file or settings.arm)
         if arm.side != settings.arm:
@@ -258,6 +271,20 @@ class DynamicsNode(Node):
             + f"; q̈ by {settings.estimator}; collision detection "
             + (f"with {settings.thresholds_file}" if thresholds is not None else "waiting for ~/calibrate")
         )
+
+    def _warn_unknown_overrides(self) -> None:
+        """Warn about start-up overrides (-p, --params-file) naming no parameter of this node: a
+        misspelt name would otherwise be ignored without a word."""
+        # rclpy keeps the overrides for this node in Node._parameter_overrides (no public accessor).
+        unknown = sorted(name for name in self._parameter_overrides if not self.has_parameter(name))
+        if unknown:
+            known = [spec.name for spec in NodeSettings.fields()]
+            hints = "".join(
+                f" ({name}: did you mean {close[0]}?)" for name in unknown if (close := difflib.get_close_matches(name, known, 1))
+            )
+            self.get_logger().warn(
+                f"ignoring parameters this node does not have: {', '.join(unknown)}{hints}; its parameters: {', '.join(known)}"
+            )
 
     @property
     def input_error(self) -> BaseException | None:
@@ -381,6 +408,17 @@ class DynamicsNode(Node):
                 self._pipeline.configure(self._settings.estimator, self._settings.cutoff_hz)
                 self._health.record_reset(ResetCause.SETTINGS)
             self.get_logger().info(f"q̈ by {self._settings.estimator} (cutoff {self._settings.cutoff_hz} Hz)")
+
+
+def _descriptor(spec: dataclasses.Field) -> ParameterDescriptor:
+    """The ROS parameter descriptor of a settings field: its help, read-only unless live, its range."""
+    live, bounds = spec.metadata["live"], spec.metadata["bounds"]
+    descriptor = ParameterDescriptor(description=spec.metadata["help"] + ("" if live else " (read at start-up)"), read_only=not live)
+    if bounds is not None and isinstance(spec.default, int):
+        descriptor.integer_range = [IntegerRange(from_value=bounds[0], to_value=bounds[1], step=1)]
+    elif bounds is not None:
+        descriptor.floating_point_range = [FloatingPointRange(from_value=bounds[0], to_value=bounds[1], step=0.0)]
+    return descriptor
 
 
 def main(args: Sequence[str] | None = None) -> int:

@@ -35,6 +35,7 @@ import numpy as np
 from .acceleration import first_difference, zero_phase_acceleration
 from .arm_model import ArmModel, load_arm_model
 from .effects import S1Spring, effects_from_dict
+from .output_files import check_outputs, staged_outputs
 from .simulator import SensorModel, SimulationResult, SimulationSpec, simulate, write_ground_truth
 
 __all__ = ["EFFECTS", "PAPER_TABLE_V", "PAPER_TABLE_V_SUM", "SENSOR", "SetResult", "run_experiment"]
@@ -320,18 +321,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def write_outputs(sets: list[SetResult], out: Path, page: Path, command: str) -> None:
-    """Tables, figures, results and ground truths into ``out``; the page at ``page``."""
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "table_v.md").write_text(table_v_markdown(sets), encoding="utf-8")
-    plot_trajectories(sets, out / _figure_files(sets)[0])
-    for s, name in zip(sets, _figure_files(sets)[1:]):
-        plot_torques(s, out / name)
-        write_ground_truth(out / f"set{s.number}_{s.trajectory}.truth.json", s.simulation)
-    results = {f"set{s.number}_{s.trajectory}": s.statistics() for s in sets}
-    (out / "results.json").write_text(json.dumps(results, indent=1) + "\n", encoding="utf-8")
-    page.parent.mkdir(parents=True, exist_ok=True)
-    figure_dir = Path(os.path.relpath(out, page.parent)).as_posix()
-    page.write_text(page_markdown(sets, figure_dir, command), encoding="utf-8")
+    """Tables, figures, results and ground truths into ``out``; the page at ``page``: all of them
+    or none (:mod:`.output_files`; existing ones are replaced). The folders' parents must exist."""
+    figures = _figure_files(sets)
+    truths = [f"set{s.number}_{s.trajectory}.truth.json" for s in sets]
+    names = ["table_v.md", *figures, *truths, "results.json"]
+    with staged_outputs([*(out / n for n in names), page]) as staged:
+        at = dict(zip([*names, "page"], staged))
+        at["table_v.md"].write_text(table_v_markdown(sets), encoding="utf-8")
+        plot_trajectories(sets, at[figures[0]])
+        for s, figure, truth in zip(sets, figures[1:], truths):
+            plot_torques(s, at[figure])
+            write_ground_truth(at[truth], s.simulation)
+        results = {f"set{s.number}_{s.trajectory}": s.statistics() for s in sets}
+        at["results.json"].write_text(json.dumps(results, indent=1) + "\n", encoding="utf-8")
+        figure_dir = Path(os.path.relpath(out, page.parent)).as_posix()
+        at["page"].write_text(page_markdown(sets, figure_dir, command), encoding="utf-8")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -344,6 +349,7 @@ def run(args: argparse.Namespace) -> int:
         command += f" --duration {args.duration:g}"
     if args.seed != 0:
         command += f" --seed {args.seed}"
+    check_outputs([args.out / "results.json", page], replace=True)  # before the experiment: fail fast
     sets = run_experiment(args.duration, args.seed)
     write_outputs(sets, args.out, page, command)
     print(f"{args.out}: Table V, figures and results; page: {page}")

@@ -23,7 +23,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "set ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST to stay on this machine."
     )
     parser.add_argument("bag", type=Path, metavar="BAG", help="bag to play: .bag, ROS 2 bag folder, .mcap or .db3")
-    parser.add_argument("--rate", type=float, default=1.0, help="speed factor against real time (default 1.0)")
+    parser.add_argument("--speed", type=float, default=1.0, metavar="FACTOR", help="playback speed, a factor of real time: 2 plays twice as fast (default 1.0)")
     parser.add_argument("--loop", action="store_true", help="start again at the end (until Ctrl-C)")
     parser.add_argument("--topics", nargs="+", metavar="TOPIC", help="topics to play (default: every joint-state topic)")
     parser.add_argument(
@@ -34,13 +34,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Play args.bag; returns 0 (errors raise BaxterDynamicsError)."""
-    from msg_adapters.bag_io import read_joint_state_messages
+    from msg_adapters.bag_io import DEFAULT_TOPIC, read_joint_state_messages
+    from msg_adapters.recording_files import TABLE_SUFFIXES
 
     from .errors import PlaybackError
 
-    if not (args.rate > 0):
-        raise PlaybackError(f"--rate must be positive, got {args.rate}")
+    if not (args.speed > 0):
+        raise PlaybackError(f"--speed must be positive, got {args.speed}")
+    if args.bag.suffix in TABLE_SUFFIXES:
+        raise PlaybackError(
+            f"{args.bag}: play takes bags (.bag, a ROS 2 bag folder, .mcap, .db3), not tables; make one with "
+            f"`baxter-dynamics process {args.bag} --out BAG.mcap` and play it with --topics {DEFAULT_TOPIC}"
+        )
     messages = read_joint_state_messages(args.bag, args.topics)
     from .player import play  # imports rclpy: only once the bag has been read
 
-    return play(messages, rate=args.rate, loop=args.loop, wait_for_subscribers_s=args.wait_for_subscribers)
+    return play(messages, speed=args.speed, loop=args.loop, wait_for_subscribers_s=args.wait_for_subscribers)

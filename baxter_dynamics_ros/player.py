@@ -3,7 +3,7 @@
 A thin shell: messages come from :func:`msg_adapters.bag_io.read_joint_state_messages` already
 serialized as sensor_msgs/msg/JointState, and are published as they are (rclpy accepts bytes),
 each after a /clock message carrying its recorded receive time, so that nodes with
-``use_sim_time`` run on the bag's time. Paced by wall time at ``rate`` × real time.
+``use_sim_time`` run on the bag's time. Paced by wall time at ``speed`` × real time.
 
 The ROS 2 environment of the caller is used as it is (ROS_DOMAIN_ID,
 ROS_AUTOMATIC_DISCOVERY_RANGE, RMW_IMPLEMENTATION...): nothing here changes discovery.
@@ -68,11 +68,11 @@ class BagPlayer(Node):
 def play(
     messages: Sequence[tuple[int, str, bytes]],
     *,
-    rate: float = 1.0,
+    speed: float = 1.0,
     loop: bool = False,
     wait_for_subscribers_s: float = 0.0,
 ) -> int:
-    """Publish (receive time ns, topic, bytes) messages, sorted by time, at ``rate`` × real time.
+    """Publish (receive time ns, topic, bytes) messages, sorted by time, at ``speed`` × real time.
 
     loop: start again from the first message after the last (the clock jumps back).
     wait_for_subscribers_s: first wait up to this long for a subscriber on every topic (raises
@@ -96,7 +96,7 @@ def play(
         while True:
             start_s = time.monotonic()
             for receive_ns, topic, raw in messages:
-                delay_s = start_s + (receive_ns - first_ns) * 1e-9 / rate - time.monotonic()
+                delay_s = start_s + (receive_ns - first_ns) * 1e-9 / speed - time.monotonic()
                 if delay_s > 0:
                     time.sleep(delay_s)
                 node.publish(topic, receive_ns, raw)

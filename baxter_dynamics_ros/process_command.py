@@ -18,7 +18,6 @@ from .errors import RecordingFileError
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The command's options."""
     from msg_adapters.bag_io import DEFAULT_TOPIC
-    from msg_adapters.csv_io import DEFAULT_RATE_HZ
 
     from .processing import ACCELERATION_METHODS
 
@@ -31,8 +30,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--model", type=Path, metavar="YAML", help="arm model file (default: the package's model of the arm)")
     parser.add_argument("--topic", default=DEFAULT_TOPIC, help=f"joint-state topic of a bag (default {DEFAULT_TOPIC})")
     parser.add_argument(
-        "--rate-hz", type=float, default=DEFAULT_RATE_HZ,
-        help=f"sample rate of a table without time column, Hz (default {DEFAULT_RATE_HZ:g})",
+        "--rate-hz", type=float, metavar="HZ",
+        help="sample rate of a table without a time column, Hz (default: estimated from position and velocity)",
     )
     parser.add_argument(
         "--acceleration", choices=tuple(ACCELERATION_METHODS), default="zero_phase",

@@ -8,17 +8,45 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
 from .errors import RecordingError
 
-__all__ = ["ARM_SIDES", "JOINT_SUFFIXES", "Recording", "arm_joint_names", "detect_arm"]
+__all__ = [
+    "ARM_SIDES",
+    "JOINT_SUFFIXES",
+    "MIN_MOTION_RAD",
+    "MIN_FIT_S",
+    "MIN_RECORDING_S",
+    "MIN_RECORDING_SAMPLES",
+    "OtherArm",
+    "Recording",
+    "arm_joint_names",
+    "detect_arm",
+    "estimate_rate_hz",
+    "require_activity",
+    "require_length",
+]
 
 #: The arms, by the prefix of their joint names.
 ARM_SIDES = ("right", "left")
 #: Joint order of the model (shoulder s0 s1, elbow e0 e1, wrist w0 w1 w2), as in config/*.yaml.
 JOINT_SUFFIXES = ("s0", "s1", "e0", "e1", "w0", "w1", "w2")
+#: An arm moves in a recording when one of its joint angles spans at least this much, rad (0.57°:
+#: 26 steps of Baxter's 2π/16384 rad encoders; an arm at rest stays within a few steps).
+MIN_MOTION_RAD = 0.01
+#: Least correlation of Δq with q̇ Δt for a sample rate estimated from them to be believed.
+MIN_RATE_FIT_CORRELATION = 0.5
+#: The least one recording must hold for the offline methods (``diagnose``, ``calibrate``): 2 s —
+#: four periods of the gap analysis' 2 Hz systematic band, twenty of the diagnosis' 0.1 s
+#: decorrelation time, forty time constants of the momentum observer at its default gain — in
+#: at least 200 samples.
+MIN_RECORDING_S = 2.0
+MIN_RECORDING_SAMPLES = 200
+#: The least data a fit takes in all (the diagnosis' training recordings, a calibration's), s.
+MIN_FIT_S = 10.0
 
 
 def arm_joint_names(side: str) -> tuple[str, ...]:
@@ -50,6 +78,87 @@ def detect_arm(names: Sequence[str], q_range_rad: dict[str, float] | None = None
     if right == left:
         raise RecordingError("both arms are recorded and move alike; choose one with --arm right|left")
     return "right" if right > left else "left"
+
+
+def _span_rad(q: np.ndarray) -> float:
+    """The largest range (max − min) of one joint's angle, rad; 0 without samples or joints."""
+    return float(np.ptp(q, axis=0).max()) if q.size else 0.0
+
+
+def estimate_rate_hz(q: np.ndarray, qd: np.ndarray) -> float | None:
+    """The sample rate of evenly spaced samples, Hz, from their positions and velocities alone.
+
+    q (N, m) rad, qd (N, m) rad/s. The sample period Δt is the least-squares solution of
+    Δq_k = Δt (q̇_k + q̇_{k+1}) / 2 (the trapezoid rule) over every step k and joint:
+    Δt = Σ Δq_k v̄_k / Σ v̄_k². None when it cannot be made: no joint spans :data:`MIN_MOTION_RAD`
+    (the arm never moves), or Δq and v̄ correlate less than :data:`MIN_RATE_FIT_CORRELATION`
+    (the velocities do not describe these positions). Steps with a non-finite value are left out.
+    """
+    q = np.asarray(q, dtype=np.float64)
+    qd = np.asarray(qd, dtype=np.float64)
+    dq = np.diff(q, axis=0).ravel()
+    v_mean = (0.5 * (qd[1:] + qd[:-1])).ravel()
+    finite = np.isfinite(dq) & np.isfinite(v_mean)
+    dq, v_mean = dq[finite], v_mean[finite]
+    if not finite.any() or _span_rad(q[np.isfinite(q).all(axis=1)]) < MIN_MOTION_RAD:
+        return None
+    vv, dd = float(v_mean @ v_mean), float(dq @ dq)
+    if vv == 0.0 or dd == 0.0:
+        return None
+    dq_v = float(dq @ v_mean)
+    if dq_v / np.sqrt(vv * dd) < MIN_RATE_FIT_CORRELATION:
+        return None
+    return vv / dq_v
+
+
+class OtherArm(NamedTuple):
+    """What a file holds of an arm that was not chosen: q (N, k) rad and effort (N, k) N·m (None if
+    absent) of those of its joints present (k ≤ 7), and the names of its missing columns / joints."""
+
+    q: np.ndarray
+    effort: np.ndarray | None
+    missing: tuple[str, ...] = ()
+
+
+def require_activity(side: str, q: np.ndarray, effort: np.ndarray, others: dict[str, OtherArm] | None = None) -> None:
+    """Refuse the data of an arm that never moves or has no effort (RecordingError).
+
+    side: the chosen arm; q (N, 7) rad, effort (N, 7) N·m its data. Moving means one joint angle
+    spanning :data:`MIN_MOTION_RAD`; no effort, every value 0. others: the file's other arms, named
+    in the error when they move and have effort (or what they lack), so that the user can choose.
+    """
+    hints = []
+    for other, data in (others or {}).items():
+        if _span_rad(data.q) < MIN_MOTION_RAD or data.effort is None or not np.any(data.effort):
+            continue
+        if data.missing:
+            hints.append(f"the {other} arm moves, but {', '.join(data.missing)} is missing")
+        else:
+            hints.append(f"the {other} arm moves and has effort: pass --arm {other}")
+    hint = "".join(f"; {h}" for h in hints)
+    span = _span_rad(np.asarray(q))
+    if span < MIN_MOTION_RAD:
+        raise RecordingError(
+            f"the {side} arm does not move here (no joint angle spans {MIN_MOTION_RAD} rad; at most {span:.4f}){hint}"
+        )
+    if not np.any(effort):
+        raise RecordingError(f"the {side} arm has no effort here (every value is 0){hint}")
+
+
+def require_length(recordings: Sequence[tuple[str, Recording]], what: str, total_s: float = 0.0) -> None:
+    """Refuse (RecordingError) a recording shorter than :data:`MIN_RECORDING_S` or with fewer than
+    :data:`MIN_RECORDING_SAMPLES` samples, and ``recordings`` (label, recording) shorter than
+    ``total_s`` together; ``what`` names their use in the messages (e.g. "test"). Lengths are
+    :attr:`Recording.span_s`."""
+    for label, rec in recordings:
+        if rec.span_s < MIN_RECORDING_S or len(rec) < MIN_RECORDING_SAMPLES:
+            raise RecordingError(
+                f"{label}: {len(rec)} samples, {rec.span_s:.2f} s; a {what} recording needs at least "
+                f"{MIN_RECORDING_SAMPLES} samples and {MIN_RECORDING_S:g} s"
+            )
+    total = sum(rec.span_s for _, rec in recordings)
+    if total < total_s:
+        raise RecordingError(f"the {what} recordings hold {total:.2f} s together; at least {total_s:g} s are needed")
 
 
 @dataclass(frozen=True)
@@ -114,6 +223,11 @@ class Recording:
     def rate_hz(self) -> float:
         """The median sample rate in Hz."""
         return 1e9 / float(np.median(np.diff(self.stamps_ns)))
+
+    @property
+    def span_s(self) -> float:
+        """The time the samples cover, s: N sample periods (the median one), one more than duration_s."""
+        return len(self) / self.rate_hz
 
     @property
     def duration_s(self) -> float:

@@ -6,23 +6,34 @@ into G(q), τ and the residual, or into a :class:`SkipReason` (the message reade
 ``array_length``). For sample k, k−1 being the last accepted sample:
 
 1. skipped if any of the arm's q, q̇ or effort values is NaN or ±inf (``non_finite_input``);
-2. skipped if t_k = t_{k−1} (``duplicate_stamp``); if t_k < t_{k−1} the estimator is reset and the
+2. skipped if it is one no real Baxter can give (``implausible_input``): a joint angle beyond the
+   joint limits by more than :data:`POSITION_MARGIN_RAD`, a speed above :data:`PLAUSIBLE_FACTOR`
+   times the joint's velocity limit, an effort above that factor times its effort limit (the
+   model file's limits, the URDF's: 1.5 rad/s and 50–100 N·m at s0–e1, 4 rad/s and 15 N·m at the
+   wrist; the four real recordings reach 1.34 times a velocity limit and 0.31 times an effort
+   limit). Nothing of such a sample reaches a filter or the observer: the next samples give the
+   outputs they would have given without it;
+3. skipped if t_k = t_{k−1} (``duplicate_stamp``); if t_k < t_{k−1} the estimator is reset and the
    sample skipped (``stamp_backwards``: a recording restarting, a publisher restarting), so the
    samples after it start afresh instead of being compared with the old ones;
-3. without q̇ (empty velocity in the message) q̇_k = (q_k − q_{k−1}) / Δt_k, the backward difference
+4. without q̇ (empty velocity in the message) q̇_k = (q_k − q_{k−1}) / Δt_k, the backward difference
    of the positions; the first sample after a (re)start has nothing to difference and is skipped
-   (``velocity_warm_up``, expected once, not a fault);
-4. q̈_k from the causal estimator on q̇ with Δt_k = t_k − t_{k−1} taken from the stamps:
+   (``velocity_warm_up``, expected once, not a fault); a differenced q̇ beyond the bound of step 2
+   (a jump of the positions) skips the sample as ``implausible_input`` and differences the next
+   one from it;
+5. q̈_k from the causal estimator on q̇ with Δt_k = t_k − t_{k−1} taken from the stamps:
    ``lowpass`` (:class:`~baxter_dynamics_ros.acceleration.LowPassDifferentiator`, −3 dB at
    ``cutoff_hz``) or ``first_difference`` (the paper's raw difference); q̈ = 0 on the first sample
    after a (re)start;
-5. τ = M(q) q̈ + C(q, q̇) + G(q) (eq. 1) and G(q) = τ(q, 0, 0) from one call of the compiled core;
+6. τ = M(q) q̈ + C(q, q̇) + G(q) (eq. 1) and G(q) = τ(q, 0, 0) from one call of the compiled core;
    with an effects file, of the compensated model (:mod:`baxter_dynamics_ros.compensation`: the
    inertial effects in M, C, G, the others' share of the effort added to τ);
-   if either holds NaN/inf, or the residual does, the estimator (whose state holds the same
-   values) is reset and the sample skipped (``non_finite_model``);
-6. residual = measured effort − τ, or None when the message has no effort;
-7. external torque r = the generalised-momentum observer's output
+   if either holds NaN/inf, or q̈, the residual or r does, the estimator and the observer (whose
+   states hold the same values) are reset, the sample skipped (``non_finite_model``) and the reset
+   counted (``resets_total.non_finite_state``). The plausibility bounds of step 2 keep every
+   number far from overflow, so this is a guard, not an expected path;
+7. residual = measured effort − τ, or None when the message has no effort;
+8. external torque r = the generalised-momentum observer's output
    (:class:`~baxter_dynamics_ros.collision.MomentumObserver`, gain ``observer_gain_1_s``, effort–state
    alignment ``observer_effort_delay_s``, the same compensated model) on the samples with effort, or None without effort. The observer restarts
    (r = 0) with the estimator, and after a sample without effort.
@@ -31,7 +42,8 @@ into G(q), τ and the residual, or into a :class:`SkipReason` (the message reade
 node's ``diagnostics_period_s``, 1 s by default) as plain data, which the node publishes on
 /diagnostics. Levels:
 
-- OK — samples came in and every one was published, with a residual;
+- OK — samples came in and every one was published, with a residual, and every statistic is
+  finite (a non-finite residual RMS is reported as WARN, never OK);
 - WARN — no sample came in the window (robot or recording stopped, wrong topic), or some samples
   were skipped for a fault, or some samples had no effort (no residual published for them);
 - ERROR — samples came in but none could be published (every one skipped for a fault).
@@ -60,12 +72,20 @@ __all__ = [
     "HealthMonitor",
     "HealthReport",
     "ModelTorques",
+    "PLAUSIBLE_FACTOR",
+    "POSITION_MARGIN_RAD",
     "ResetCause",
     "ResidualPipeline",
     "SKIP_DESCRIPTIONS",
     "SkipReason",
     "make_estimator",
 ]
+
+
+#: How far beyond a joint limit a measured angle may be, rad (5.7°: past the hard stops).
+POSITION_MARGIN_RAD = 0.1
+#: A measured speed (effort) may be at most this many times the joint's velocity (effort) limit.
+PLAUSIBLE_FACTOR = 3.0
 
 
 class SkipReason(Enum):
@@ -75,6 +95,7 @@ class SkipReason(Enum):
     MISSING_JOINT = "missing_joint"
     ARRAY_LENGTH = "array_length"
     NON_FINITE_INPUT = "non_finite_input"
+    IMPLAUSIBLE_INPUT = "implausible_input"
     DUPLICATE_STAMP = "duplicate_stamp"
     STAMP_BACKWARDS = "stamp_backwards"
     VELOCITY_WARM_UP = "velocity_warm_up"
@@ -92,6 +113,7 @@ SKIP_DESCRIPTIONS: dict[SkipReason, str] = {
     SkipReason.MISSING_JOINT: "an arm joint is missing from the message's name list, or named twice",
     SkipReason.ARRAY_LENGTH: "position (or a non-empty velocity/effort) has not one entry per name",
     SkipReason.NON_FINITE_INPUT: "NaN or inf in the arm's position, velocity or effort",
+    SkipReason.IMPLAUSIBLE_INPUT: "a position beyond the joint limits, or a speed or effort no real Baxter reaches",
     SkipReason.DUPLICATE_STAMP: "same header stamp as the previous sample",
     SkipReason.STAMP_BACKWARDS: "header stamp earlier than the previous sample's; estimator reset",
     SkipReason.VELOCITY_WARM_UP: "no velocity in the message: waiting for a second sample to difference",
@@ -100,11 +122,12 @@ SKIP_DESCRIPTIONS: dict[SkipReason, str] = {
 
 
 class ResetCause(Enum):
-    """Why the estimator was reset from outside the pipeline."""
+    """Why the estimator was reset: from outside the pipeline, or by it when a state went non-finite."""
 
     SERVICE = "service"
     CLOCK_JUMP = "clock_jump"
     SETTINGS = "settings"
+    NON_FINITE_STATE = "non_finite_state"
 
 
 class ArmSample(NamedTuple):
@@ -154,6 +177,21 @@ def _finite(x: np.ndarray) -> bool:
     return True
 
 
+@njit(cache=True)
+def _within(x: np.ndarray, low: np.ndarray, high: np.ndarray) -> bool:
+    for j in range(x.shape[0]):
+        if not (low[j] <= x[j] <= high[j]):
+            return False
+    return True
+
+
+@njit(cache=True)
+def _add_squares(total: np.ndarray, x: np.ndarray) -> None:
+    """total += x² in place (compiled: no overflow warning on stderr; an overflow gives inf)."""
+    for j in range(x.shape[0]):
+        total[j] += x[j] * x[j]
+
+
 def _all_finite(x: np.ndarray | None) -> bool:
     """Whether x holds no NaN or ±inf (None: True); compiled, as the node asks it six times a sample."""
     return x is None or _finite(x)
@@ -179,8 +217,17 @@ class ResidualPipeline:
         except CollisionError as err:
             raise SettingsError(f"observer: {err}") from err
         self._observing = False  # whether the observer ran on the last sample
-        self._last_stamp_ns: int | None = None
-        self._last_q: np.ndarray | None = None
+        self._last_stamp_ns: int | None = None  # of the last sample taken in (stamps must increase from it)
+        self._last_q: np.ndarray | None = None  # its positions, which q̇ is differenced from
+        self._estimated_ns: int | None = None  # stamp of the last q̇ the estimator (and the observer) took
+        # Plausibility bounds (module docstring, step 2), (7,) each: q within [q_low, q_high],
+        # |q̇| ≤ qd_max, |effort| ≤ effort_max.
+        self._q_low = self.arm.lower_rad - POSITION_MARGIN_RAD
+        self._q_high = self.arm.upper_rad + POSITION_MARGIN_RAD
+        self._qd_max = PLAUSIBLE_FACTOR * self.arm.velocity_limit_rad_s
+        self._qd_min = -self._qd_max
+        self._effort_max = PLAUSIBLE_FACTOR * self.arm.effort_limit_nm
+        self._effort_min = -self._effort_max
         # One batch of two rows for the compiled core: row 0 gives τ(q, q̇, q̈), row 1 G(q) = τ(q, 0, 0).
         self._q2 = np.zeros((2, 7))
         self._qd2 = np.zeros((2, 7))
@@ -207,6 +254,15 @@ class ResidualPipeline:
         self._observing = False
         self._last_stamp_ns = None
         self._last_q = None
+        self._estimated_ns = None
+
+    def _plausible(self, q: np.ndarray, qd: np.ndarray | None, effort: np.ndarray | None) -> bool:
+        """Whether a sample is one a real Baxter can give (module docstring, step 2)."""
+        return (
+            _within(q, self._q_low, self._q_high)
+            and (qd is None or _within(qd, self._qd_min, self._qd_max))
+            and (effort is None or _within(effort, self._effort_min, self._effort_max))
+        )
 
     def _dynamics(self) -> np.ndarray:
         """(2, 7): τ of the batch rows set in _q2, _qd2, _qdd2 (the compiled kernel: no per-call checks)."""
@@ -223,22 +279,26 @@ class ResidualPipeline:
         stamp_ns, q, qd, effort = sample
         if not (_all_finite(q) and _all_finite(qd) and _all_finite(effort)):
             return SkipReason.NON_FINITE_INPUT
+        if not self._plausible(q, qd, effort):
+            return SkipReason.IMPLAUSIBLE_INPUT
         last_ns = self._last_stamp_ns
-        dt_s = 0.0
         if last_ns is not None:
             if stamp_ns == last_ns:
                 return SkipReason.DUPLICATE_STAMP
             if stamp_ns < last_ns:
                 self.reset()
                 return SkipReason.STAMP_BACKWARDS
-            dt_s = (stamp_ns - last_ns) * 1e-9
         qd_from_positions = qd is None
         if qd is None:
             if self._last_q is None:
                 self._last_stamp_ns, self._last_q = stamp_ns, q
                 return SkipReason.VELOCITY_WARM_UP
-            qd = (q - self._last_q) / dt_s
+            qd = (q - self._last_q) / ((stamp_ns - last_ns) * 1e-9)
         self._last_stamp_ns, self._last_q = stamp_ns, q
+        if qd_from_positions and not _within(qd, self._qd_min, self._qd_max):
+            return SkipReason.IMPLAUSIBLE_INPUT  # the positions jumped; the next sample is differenced from these
+        dt_s = 0.0 if self._estimated_ns is None else (stamp_ns - self._estimated_ns) * 1e-9
+        self._estimated_ns = stamp_ns
         qdd = self._estimator.update(qd, dt_s)
         self._q2[0] = q
         self._q2[1] = q
@@ -256,7 +316,7 @@ class ResidualPipeline:
         elif self._observing:  # restart it when it is next needed
             self._observer.reset()
             self._observing = False
-        if not (_all_finite(tau_and_gravity) and _all_finite(residual) and _all_finite(external_torque)):
+        if not (_all_finite(tau_and_gravity) and _all_finite(qdd) and _all_finite(residual) and _all_finite(external_torque)):
             self.reset()
             return SkipReason.NON_FINITE_MODEL
         return ModelTorques(
@@ -311,15 +371,17 @@ class HealthMonitor:
             self._latency_max_ns = latency_ns
         if isinstance(result, SkipReason):
             self._skips[result] += 1
+            if result is SkipReason.NON_FINITE_MODEL:  # the pipeline reset its states
+                self._resets_total[ResetCause.NON_FINITE_STATE] += 1
             return
         self._published += 1
         self._qd_from_positions += result.qd_from_positions
         if result.residual is not None:
             self._with_residual += 1
-            self._residual_sq_sum += result.residual * result.residual
+            _add_squares(self._residual_sq_sum, result.residual)
 
     def record_reset(self, cause: ResetCause) -> None:
-        """Count an estimator reset asked from outside the pipeline."""
+        """Count an estimator reset asked from outside the pipeline (its own are counted by :meth:`record`)."""
         self._resets_total[cause] += 1
 
     def report(self, elapsed_s: float) -> HealthReport:
@@ -341,6 +403,11 @@ class HealthMonitor:
             level, message = Health.WARN, f"{missing} of {received} samples had no effort: no residual for them"
         else:
             level, message = Health.OK, f"publishing at {received / elapsed_s:.1f} Hz"
+        with np.errstate(invalid="ignore", over="ignore"):
+            rms = np.sqrt(self._residual_sq_sum / max(self._with_residual, 1))
+        if self._with_residual and not np.isfinite(rms).all():  # a statistic that says nothing is never OK
+            overflowed = ", ".join(j for j, r in zip(self.joint_names, rms) if not np.isfinite(r))
+            level, message = max(level, Health.WARN), f"{message}; residual RMS not finite at {overflowed}"
 
         for reason, n in self._skips.items():
             self._skips_total[reason] += n
@@ -360,7 +427,6 @@ class HealthMonitor:
         values += [(f"skipped_total.{r.value}", str(n)) for r, n in self._skips_total.items()]
         values += [(f"resets_total.{c.value}", str(n)) for c, n in self._resets_total.items()]
         if self._with_residual:
-            rms = np.sqrt(self._residual_sq_sum / self._with_residual)
             values += [(f"residual_rms_nm.{j}", f"{r:.4g}") for j, r in zip(self.joint_names, rms)]
         else:
             values += [(f"residual_rms_nm.{j}", "n/a") for j in self.joint_names]

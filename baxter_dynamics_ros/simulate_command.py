@@ -2,8 +2,9 @@
 
 Writes ``/robot/joint_states`` as the robot publishes it (Baxter's 21 joints with the grippers' fingers, the simulated arm
 moving, the rest still) to ``--out``: a ``.mcap`` ROS 2 bag or a ``.csv`` / ``.parquet`` table
-(the generic layout of :mod:`msg_adapters.csv_io`), written whole or not at all, and the
-ground truth beside it as ``<out>.truth.json`` (spec, effects with parameters, seed, tracking).
+(the generic layout of :mod:`msg_adapters.csv_io`), and the ground truth beside it as
+``<out>.truth.json`` (spec, effects with parameters, seed, tracking): both or neither
+(:mod:`baxter_dynamics_ros.output_files`).
 
 The effects spec (``--effects``) is a YAML file with up to four sections; see
 ``config/effects_example.yaml``::
@@ -40,7 +41,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--trajectory", choices=TRAJECTORIES, default="paper_xyz", help="reference trajectory (default paper_xyz)")
     parser.add_argument("--effects", type=Path, metavar="SPEC.yaml", help="effects spec (default: none, the rigid-body arm)")
     parser.add_argument("--duration", type=float, default=60.0, metavar="S", help="recorded time, s (default 60)")
-    parser.add_argument("--rate", type=float, default=100.0, metavar="HZ", help="recording rate, Hz (default 100)")
+    parser.add_argument("--rate-hz", type=float, default=100.0, metavar="HZ", help="recording rate, Hz (default 100)")
     parser.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the noise and the random trajectory (default 0)")
     parser.add_argument("--arm", choices=("right", "left"), default="right", help="simulated arm (default right)")
     parser.add_argument("--topic", default=DEFAULT_TOPIC, help=f"joint-state topic of an mcap output (default {DEFAULT_TOPIC})")
@@ -53,15 +54,23 @@ def ground_truth_path(out: Path) -> Path:
     return out.with_name(out.name + ".truth.json")
 
 
-def load_spec_file(path: Path) -> dict:
-    """The sections of an effects spec file, each a mapping (missing ones empty)."""
-    from .effects import read_spec_file
+def load_spec(path: Path | None) -> dict:
+    """The simulation settings of an effects spec file (None: the rigid-body arm, no collisions), as
+    :class:`~baxter_dynamics_ros.simulator.SimulationSpec` arguments: effects, sensor, controller, collisions."""
+    from .effects import effects_from_dict, read_spec_file
+    from .simulator import ControllerGains, SensorModel
 
-    raw = read_spec_file(path)
+    raw = {} if path is None else read_spec_file(path)
     unknown = set(raw) - set(SPEC_SECTIONS)
     if unknown:
         raise EffectSpecError(f"{path}: unknown sections {sorted(unknown)}; a spec has {', '.join(SPEC_SECTIONS)}")
-    return {section: raw.get(section) or ([] if section == "collisions" else {}) for section in SPEC_SECTIONS}
+    where = str(path or "effects spec")
+    return {
+        "effects": effects_from_dict(raw.get("effects") or {}, f"{where}: effects"),
+        "sensor": SensorModel.from_dict(raw.get("sensor") or {}, f"{where}: sensor"),
+        "controller": ControllerGains.from_dict(raw.get("controller") or {}, f"{where}: controller"),
+        "collisions": _collisions(raw.get("collisions") or [], where),
+    }
 
 
 def _collisions(raw, where: str):
@@ -77,24 +86,16 @@ def run(args: argparse.Namespace) -> int:
     """Simulate args into args.out and its ground truth; returns 0 (errors raise BaxterDynamicsError)."""
     from msg_adapters.recording_files import check_output, write_joint_states
 
-    from .effects import effects_from_dict
-    from .simulator import ControllerGains, SensorModel, SimulationSpec, simulate, write_ground_truth
+    from .output_files import check_outputs, staged_outputs
+    from .simulator import SimulationSpec, simulate, write_ground_truth
 
-    check_output(args.out, replace=args.force)  # before simulating: fail fast
     truth = ground_truth_path(args.out)
-    sections = load_spec_file(args.effects) if args.effects is not None else {s: ([] if s == "collisions" else {}) for s in SPEC_SECTIONS}
-    where = str(args.effects or "effects spec")
+    check_output(args.out, replace=args.force)  # before simulating: fail fast
+    check_outputs([truth], replace=args.force)
     spec = SimulationSpec(
-        trajectory=args.trajectory,
-        duration_s=args.duration,
-        rate_hz=args.rate,
-        seed=args.seed,
-        side=args.arm,
-        effects=effects_from_dict(sections["effects"], f"{where}: effects"),
-        sensor=SensorModel.from_dict(sections["sensor"], f"{where}: sensor"),
-        controller=ControllerGains.from_dict(sections["controller"], f"{where}: controller"),
-        collisions=_collisions(sections["collisions"], where),
-    )
+        trajectory=args.trajectory, duration_s=args.duration, rate_hz=args.rate_hz, seed=args.seed, side=args.arm,
+        **load_spec(args.effects),
+    )  # fmt: skip
     print(
         f"simulating {spec.duration_s:g} s of {spec.trajectory} on the {spec.side} arm, "
         f"RK4 at {spec.physics_rate_hz:g} Hz, recorded at {spec.rate_hz:g} Hz",
@@ -102,11 +103,11 @@ def run(args: argparse.Namespace) -> int:
     )
     result = simulate(spec)
     states = result.robot_joint_states()
-    write_joint_states(
-        args.out, states.stamps_ns, states.names, states.position, states.velocity, states.effort,
-        topic=args.topic, replace=args.force,
-    )
-    write_ground_truth(truth, result)
+    with staged_outputs([args.out, truth]) as (staged_out, staged_truth):  # both or neither
+        write_joint_states(
+            staged_out, states.stamps_ns, states.names, states.position, states.velocity, states.effort, topic=args.topic
+        )
+        write_ground_truth(staged_truth, result)
     effects = ", ".join(e.name for e in spec.effects) or "none"
     print(f"{args.out}: {spec.samples} samples; effects: {effects}; ground truth: {truth}")
     return 0

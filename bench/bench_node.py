@@ -28,7 +28,7 @@ import tempfile
 import threading
 import time
 from array import array
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -144,7 +144,10 @@ class Bench:
         self.thread = threading.Thread(target=self.executor.spin, daemon=True)
         self.thread.start()
         rng = np.random.default_rng(0)
-        self.table = [array("d", rng.uniform(-1, 1, len(JOINTS))) for _ in range(3 * 1000)]
+        # position, velocity, effort of 1000 samples, uniform in ±1 (rad, rad/s, N·m); e1's about 1.2
+        # rad, inside its limits (−0.05 to 2.618 rad): the node skips positions a Baxter cannot have.
+        e1 = np.array([name.endswith("_e1") for name in JOINTS]) * 1.2
+        self.table = [array("d", rng.uniform(-1, 1, len(JOINTS)) + (e1 if k % 3 == 0 else 0.0)) for k in range(3 * 1000)]
         self.msg = JointState(name=JOINTS)
 
     def on_answer(self, msg) -> None:
@@ -167,24 +170,25 @@ class Bench:
         mean = np.array([float(v["latency_mean_us"]) for v in windows])
         return float((n * mean).sum() / n.sum()), max(float(v["latency_max_us"]) for v in windows)
 
-    def _publish(self, topic: str, i: int) -> None:
+    def publish(self, topic: str, i: int) -> None:
+        """Sample i of the current run (stamped base + i periods) on the topic of the peer answering on ``topic``."""
         msg = self.msg
         msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(self.base_ns + i * self.period_ns, 1_000_000_000)
         k = 3 * (i % 1000)
         msg.position, msg.velocity, msg.effort = self.table[k], self.table[k + 1], self.table[k + 2]
         self.publishers[topic].publish(msg)
 
-    def _new_run(self, n: int, period_ns: int) -> None:
+    def new_run(self, n: int, period_ns: int) -> None:
         """Stamps of the next n samples: period_ns apart, 1 s after the last run's."""
         self.base_ns += len(self.received_ns) * self.period_ns + 1_000_000_000
         self.period_ns, self.received_ns = period_ns, np.zeros(n, dtype=np.int64)
 
     def wait_matched(self, topic: str, timeout_s: float = 60.0) -> None:
         """Probe until the peer answers (both directions matched)."""
-        self._new_run(10_000, 1_000_000)
+        self.new_run(10_000, 1_000_000)
         deadline = time.monotonic() + timeout_s
         for i in range(10_000):
-            self._publish(topic, i)
+            self.publish(topic, i)
             time.sleep(0.05)
             if self.received_ns.any():
                 return
@@ -192,18 +196,27 @@ class Bench:
                 break
         raise RuntimeError(f"no answer on {topic} within {timeout_s} s")
 
-    def run(self, topic: str, rate_hz: float, duration_s: float, pid: int) -> Result:
-        n = int(rate_hz * duration_s)
-        self._new_run(n, round(1e9 / rate_hz))
+    def send(self, topic: str, rate_hz: float, n: int, every: int = 0, mark: Callable[[int], None] | None = None) -> np.ndarray:
+        """A new run: n samples on ``topic``'s peer at rate_hz, paced on the monotonic clock;
+        ``mark(samples sent)`` after every ``every`` samples. Returns the send times (n,) ns."""
+        self.new_run(n, round(1e9 / rate_hz))
         sent_ns = np.zeros(n, dtype=np.int64)
-        cpu0, wall0 = cpu_s(pid), time.perf_counter()
         start_ns = time.perf_counter_ns()
         for i in range(n):
             delay_ns = start_ns + i * self.period_ns - time.perf_counter_ns()
             if delay_ns > 0:
                 time.sleep(delay_ns * 1e-9)
             sent_ns[i] = time.perf_counter_ns()
-            self._publish(topic, i)
+            self.publish(topic, i)
+            if mark is not None and (i + 1) % every == 0:
+                mark(i + 1)
+        return sent_ns
+
+    def run(self, topic: str, rate_hz: float, duration_s: float, pid: int) -> Result:
+        n = int(rate_hz * duration_s)
+        cpu0, wall0 = cpu_s(pid), time.perf_counter()
+        start_ns = time.perf_counter_ns()
+        sent_ns = self.send(topic, rate_hz, n)
         cpu1, wall1 = cpu_s(pid), time.perf_counter()
         end_ns = time.perf_counter_ns()
         time.sleep(DRAIN_S)
@@ -230,11 +243,11 @@ class Bench:
         rclpy.try_shutdown()
 
 
-def _start(args: Sequence[str]) -> subprocess.Popen:
+def start_peer(args: Sequence[str]) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, *args], cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
 
 
-def _stop(process: subprocess.Popen) -> None:
+def stop_peer(process: subprocess.Popen) -> None:
     process.send_signal(signal.SIGINT)
     try:
         process.wait(timeout=15)
@@ -245,8 +258,8 @@ def _stop(process: subprocess.Popen) -> None:
 
 def measure(duration_s: float, rates_hz: Sequence[float]) -> dict[tuple[float, str], Result]:
     peers = {
-        PONG: _start(["-m", "bench.bench_node", "--echo"]),
-        RESIDUAL: _start(["-m", "baxter_dynamics_ros.node", "--ros-args", "-p", "arm:=right"]),
+        PONG: start_peer(["-m", "bench.bench_node", "--echo"]),
+        RESIDUAL: start_peer(["-m", "baxter_dynamics_ros.node", "--ros-args", "-p", "arm:=right"]),
     }
     bench = Bench()
     results = {}
@@ -260,7 +273,7 @@ def measure(duration_s: float, rates_hz: Sequence[float]) -> dict[tuple[float, s
     finally:
         bench.close()
         for process in peers.values():
-            _stop(process)
+            stop_peer(process)
     return results
 
 

@@ -26,7 +26,7 @@ from rosbags.highlevel import AnyReader
 
 from baxter_dynamics_ros.errors import RecordingFileError
 from baxter_dynamics_ros.processing import ProcessedRecording
-from baxter_dynamics_ros.recording import ARM_SIDES, Recording, arm_joint_names, detect_arm
+from baxter_dynamics_ros.recording import ARM_SIDES, OtherArm, Recording, arm_joint_names, detect_arm, require_activity
 
 from .mcap_writer import write_mcap
 from .serialized_joint_states import (
@@ -151,7 +151,8 @@ def read_bag_recording(
     """The recording of one arm from the joint states on ``topic`` of a bag.
 
     arm: "right" or "left"; None detects it from the joint names (when both arms are recorded,
-    the one that moves more; see :func:`~baxter_dynamics_ros.recording.detect_arm`).
+    the one that moves more; see :func:`~baxter_dynamics_ros.recording.detect_arm`). Refuses an
+    arm that does not move or has no effort (:func:`~baxter_dynamics_ros.recording.require_activity`).
     progress: called as progress(messages read, total) while reading.
     """
     path = Path(path)
@@ -177,7 +178,19 @@ def read_bag_recording(
         np.concatenate([_columns(getattr(b, f), b.names, joints) for b in chosen])[order]
         for f in ("position", "velocity", "effort")
     )
-    return Recording(arm, joints, stamps_ns, q, qd, effort)
+    recording = Recording(arm, joints, stamps_ns, q, qd, effort)
+    others = {side: _other_arm(complete, side) for side in ARM_SIDES if side != arm}
+    require_activity(arm, recording.q, recording.effort, {side: o for side, o in others.items() if o is not None})
+    return recording
+
+
+def _other_arm(blocks: list[JointStateBlock], side: str) -> OtherArm | None:
+    """The side's angles and efforts in the messages that carry its every joint (None if none do)."""
+    joints = arm_joint_names(side)
+    full = [b for b in blocks if set(joints) <= set(b.names)]
+    if not full:
+        return None
+    return OtherArm(*(np.concatenate([_columns(getattr(b, f), b.names, joints) for b in full]) for f in ("position", "effort")))
 
 
 def _columns(values: np.ndarray, names: tuple[str, ...], joints: Sequence[str]) -> np.ndarray:

@@ -5,14 +5,19 @@ columns are ignored:
 
 - **Baxter export** (the layout of the real recordings in ``../shared/data/baxter_real``):
   whitespace-separated, one header line, columns ``ang_<joint>`` (rad), ``vel_<joint>`` (rad/s),
-  ``torq_<joint>`` (N·m), e.g. ``ang_left_s0``; no time column, samples ``1 / rate_hz`` apart.
+  ``torq_<joint>`` (N·m), e.g. ``ang_left_s0``; no time column.
 - **Generic** (what ``process`` writes): comma-separated, one header line, a time column
   ``stamp_ns`` (integer ns; preferred when present) or ``time_s`` (s), and ``position_<joint>``
-  (rad), ``velocity_<joint>`` (rad/s), ``effort_<joint>`` (N·m) columns. Without a time column
-  samples are ``1 / rate_hz`` apart.
+  (rad), ``velocity_<joint>`` (rad/s), ``effort_<joint>`` (N·m) columns.
 
 ``<joint>`` is a Baxter joint name such as ``right_s0``; the arm is the one whose 7 joints all have
-columns (the one that moves more if both do), unless given.
+columns (the one that moves more if both do), unless given. Tables of other datasets often name no
+arm (``ang_s0``, ``position_s0``): they are read for the arm given (``--arm``), and refused without.
+
+Without a time column, samples are evenly spaced at the rate given (``--rate-hz``) or estimated from
+the data (:func:`~baxter_dynamics_ros.recording.estimate_rate_hz`: least squares of Δq on q̇ Δt);
+without a given rate the estimate is used and said, and a given rate more than
+:data:`RATE_TOLERANCE` away from the estimate is refused.
 
 Written by :func:`write_processed_table`: ``stamp_ns``, ``time_s`` (s since the first sample),
 ``position_``, ``velocity_``, ``effort_`` (the input), ``acceleration_`` (estimated q̈, rad/s²),
@@ -22,18 +27,31 @@ Written by :func:`write_processed_table`: ``stamp_ns``, ``time_s`` (s since the 
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
 
 from baxter_dynamics_ros.errors import RecordingFileError
 from baxter_dynamics_ros.processing import ProcessedRecording
-from baxter_dynamics_ros.recording import ARM_SIDES, Recording, arm_joint_names, detect_arm
+from baxter_dynamics_ros.recording import (
+    ARM_SIDES,
+    JOINT_SUFFIXES,
+    OtherArm,
+    Recording,
+    arm_joint_names,
+    detect_arm,
+    estimate_rate_hz,
+    require_activity,
+)
 
-__all__ = ["DEFAULT_RATE_HZ", "joint_state_columns", "read_table_recording", "write_processed_table", "write_table"]
+__all__ = ["RATE_TOLERANCE", "Note", "joint_state_columns", "read_table_recording", "write_processed_table", "write_table"]
 
-DEFAULT_RATE_HZ = 100.0
+#: Largest relative difference between a given sample rate and the estimated one that is accepted.
+RATE_TOLERANCE = 0.10
+#: The largest time_s that int64 nanoseconds hold (292 years), s.
+MAX_TIME_S = 9.2e9
+Note = Callable[[str], None]  # takes a one-line message for the user
 #: Column prefixes of q, q̇, effort in each layout.
 LAYOUTS = {"baxter export": ("ang_", "vel_", "torq_"), "generic": ("position_", "velocity_", "effort_")}
 
@@ -49,21 +67,34 @@ def _read_columns(path: Path) -> dict[str, np.ndarray]:
             table = pq.read_table(path)
         except Exception as err:  # noqa: BLE001 - pyarrow's errors all mean "not a readable Parquet file"
             raise RecordingFileError(f"{path}: cannot read the Parquet file ({err})") from err
-        return {name: table.column(name).to_numpy() for name in table.column_names}
+        columns = {}
+        for name in table.column_names:
+            values = table.column(name).to_numpy(zero_copy_only=False)
+            if name == "stamp_ns":
+                if not (values.dtype.kind == "i" or (values.dtype.kind == "u" and (values < 2**63).all())):
+                    raise RecordingFileError(f"{path}: column stamp_ns must hold integer nanoseconds, got {values.dtype}")
+                columns[name] = values.astype(np.int64)
+                continue
+            try:
+                columns[name] = np.asarray(values, dtype=np.float64)
+            except (TypeError, ValueError) as err:
+                raise RecordingFileError(f"{path}: column {name} does not hold numbers ({err})") from err
+        return columns
     try:
         lines = path.read_text(encoding="utf-8").splitlines()
     except UnicodeDecodeError as err:
         raise RecordingFileError(f"{path}: not a text table ({err})") from err
     if not lines or not lines[0].strip():
         raise RecordingFileError(f"{path}: empty file, expected a header line of column names")
-    if len(lines) < 2:
+    rows = [line for line in lines[1:] if line.strip()]
+    if not rows:
         raise RecordingFileError(f"{path}: no data rows under the header line")
     delimiter = "," if "," in lines[0] else None
     names = [n.strip() for n in lines[0].split(delimiter)]
     try:
-        values = np.loadtxt(lines[1:], delimiter=delimiter, ndmin=2, dtype=np.float64)
+        values = np.loadtxt(rows, delimiter=delimiter, ndmin=2, dtype=np.float64, comments=None)
         stamps = (
-            np.loadtxt(lines[1:], delimiter=delimiter, ndmin=1, dtype=np.int64, usecols=names.index("stamp_ns"))
+            np.loadtxt(rows, delimiter=delimiter, ndmin=1, dtype=np.int64, usecols=names.index("stamp_ns"), comments=None)
             if "stamp_ns" in names
             else None
         )
@@ -77,13 +108,72 @@ def _read_columns(path: Path) -> dict[str, np.ndarray]:
     return columns
 
 
+def _arm_columns(columns: dict[str, np.ndarray], prefixes: tuple[str, ...], side: str) -> list[str] | None:
+    """The q, q̇, effort column names of ``side``'s 7 joints, 7 per prefix: ``<prefix><side>_<joint>``
+    when they are all there, else the arm-less ``<prefix><joint>`` when those are; None if neither."""
+    for names in (arm_joint_names(side), JOINT_SUFFIXES):
+        wanted = [p + j for p in prefixes for j in names]
+        if all(c in columns for c in wanted):
+            return wanted
+    return None
+
+
+def _other_arms(columns: dict[str, np.ndarray], prefixes: tuple[str, ...], side: str) -> dict[str, OtherArm]:
+    """What the table holds of the arms other than ``side`` (for the errors of require_activity)."""
+    others = {}
+    for other in ARM_SIDES:
+        joints = arm_joint_names(other)
+        q = [columns[prefixes[0] + j] for j in joints if prefixes[0] + j in columns]
+        if other == side or not q:
+            continue
+        effort = [columns[prefixes[2] + j] for j in joints if prefixes[2] + j in columns]
+        missing = tuple(p + j for p in prefixes for j in joints if p + j not in columns)
+        others[other] = OtherArm(np.column_stack(q), np.column_stack(effort) if effort else None, missing)
+    return others
+
+
+def _sample_times_ns(
+    path: Path, columns: dict[str, np.ndarray], q: np.ndarray, qd: np.ndarray, rate_hz: float | None, note: Note | None
+) -> np.ndarray:
+    """(N,) stamps: the time column, or samples 1 / rate evenly apart, the rate checked against (or,
+    without ``rate_hz``, taken from) :func:`~baxter_dynamics_ros.recording.estimate_rate_hz`."""
+    if "stamp_ns" in columns:
+        return np.asarray(columns["stamp_ns"], dtype=np.int64)
+    if "time_s" in columns:
+        time_s = np.asarray(columns["time_s"], dtype=np.float64)
+        if not (np.isfinite(time_s).all() and np.abs(time_s).max() < MAX_TIME_S):
+            raise RecordingFileError(f"{path}: time_s must hold finite times in s, below {MAX_TIME_S:.3g} in size (int64 ns)")
+        return np.round(time_s * 1e9).astype(np.int64)
+    if rate_hz is not None and not (np.isfinite(rate_hz) and rate_hz > 0):
+        raise RecordingFileError(f"{path}: has no time column and --rate-hz must be a positive number of Hz, got {rate_hz}")
+    estimate = estimate_rate_hz(q, qd)
+    if estimate is None:
+        if rate_hz is None:
+            raise RecordingFileError(
+                f"{path}: has no time column, and its sample rate cannot be estimated: the velocities do not "
+                "match the positions' steps; pass --rate-hz"
+            )
+    elif rate_hz is None:
+        rate_hz = estimate
+        if note is not None:
+            note(f"{path}: no time column; sample rate estimated from position and velocity: {estimate:.2f} Hz (--rate-hz sets it)")
+    elif abs(rate_hz / estimate - 1.0) > RATE_TOLERANCE:
+        raise RecordingFileError(
+            f"{path}: --rate-hz {rate_hz:g} disagrees with the sample rate estimated from position and velocity, "
+            f"{estimate:.2f} Hz (by more than {RATE_TOLERANCE:.0%}); check the rate, or leave --rate-hz out to use the estimate"
+        )
+    return np.round(np.arange(len(q)) * (1e9 / rate_hz)).astype(np.int64)
+
+
 def read_table_recording(
-    path: str | os.PathLike[str], *, arm: str | None = None, rate_hz: float = DEFAULT_RATE_HZ
+    path: str | os.PathLike[str], *, arm: str | None = None, rate_hz: float | None = None, note: Note | None = None
 ) -> Recording:
     """The recording of one arm from a CSV or Parquet file of either layout (module docstring).
 
-    arm: "right" or "left", None to detect it from the column names; rate_hz: the sample rate of
-    files without a time column, Hz.
+    arm: "right" or "left", None to detect it from the column names (a table whose columns name no
+    arm needs it); rate_hz: the sample rate of a table without a time column, Hz, None to estimate
+    it (said through ``note``, a one-line message). Refuses an arm that does not move or has no
+    effort (:func:`~baxter_dynamics_ros.recording.require_activity`).
     """
     path = Path(path)
     columns = _read_columns(path)
@@ -93,6 +183,10 @@ def read_table_recording(
             f"{path}: no joint columns; expected ang_/vel_/torq_<joint> (Baxter export) or "
             f"position_/velocity_/effort_<joint> (generic), found: {', '.join(columns) or 'none'}"
         )
+    armless = all(p + j in columns for p in prefixes for j in JOINT_SUFFIXES)
+    if arm is None and armless:
+        example = " ".join(p + "s0" for p in prefixes)
+        raise RecordingFileError(f"{path}: the columns name no arm ({example} ...); pass --arm right|left")
     if arm is None:
         q_prefix = prefixes[0]
         joints = [c[len(q_prefix) :] for c in columns if c.startswith(q_prefix)]
@@ -104,19 +198,13 @@ def read_table_recording(
         }
         arm = detect_arm(named, ranges)
     joints = arm_joint_names(arm)
-    missing = [p + j for p in prefixes for j in joints if p + j not in columns]
-    if missing:
+    names = _arm_columns(columns, prefixes, arm)
+    if names is None:
+        missing = [p + j for p in prefixes for j in joints if p + j not in columns]
         raise RecordingFileError(f"{path}: the {arm} arm needs columns missing here: {', '.join(missing)}")
-    q, qd, effort = (np.stack([columns[p + j] for j in joints], axis=1).astype(np.float64) for p in prefixes)
-    if "stamp_ns" in columns:
-        stamps_ns = np.asarray(columns["stamp_ns"], dtype=np.int64)
-    elif "time_s" in columns:
-        stamps_ns = np.round(np.asarray(columns["time_s"], dtype=np.float64) * 1e9).astype(np.int64)
-    else:
-        if not (np.isfinite(rate_hz) and rate_hz > 0):
-            raise RecordingFileError(f"{path}: has no time column and the rate must be positive, got {rate_hz} Hz")
-        stamps_ns = np.round(np.arange(len(q)) * (1e9 / rate_hz)).astype(np.int64)
-    return Recording(arm, joints, stamps_ns, q, qd, effort)
+    q, qd, effort = (np.column_stack([columns[c] for c in names[7 * k : 7 * k + 7]]).astype(np.float64) for k in range(3))
+    require_activity(arm, q, effort, _other_arms(columns, prefixes, arm))
+    return Recording(arm, joints, _sample_times_ns(path, columns, q, qd, rate_hz, note), q, qd, effort)
 
 
 def joint_state_columns(

@@ -8,34 +8,38 @@ Outputs, by the path's extension:
 - ``.mcap``: one mcap file holding a ROS 2 bag (readable by rosbags, ``ros2 bag`` and Foxglove);
 - ``.csv`` / ``.parquet``: a table.
 
-Output is first written into a temporary folder beside its destination and renamed into place at
-the end, so a failure leaves nothing partial behind (and an existing output, replaced only on
-success).
+Output is written whole or not at all (:mod:`baxter_dynamics_ros.output_files`): into a temporary
+folder beside its destination, renamed into place at the end, so a failure leaves nothing partial
+behind (and an existing output, replaced only on success).
 """
 
 from __future__ import annotations
 
 import os
-import shutil
-import tempfile
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
 from baxter_dynamics_ros.errors import RecordingError, RecordingFileError
+from baxter_dynamics_ros.output_files import check_outputs, staged_outputs
 from baxter_dynamics_ros.processing import ProcessedRecording
 from baxter_dynamics_ros.recording import Recording
 
 from .bag_io import DEFAULT_TOPIC, Progress, read_bag_recording, write_joint_state_bag, write_processed_bag
-from .csv_io import DEFAULT_RATE_HZ, joint_state_columns, read_table_recording, write_processed_table, write_table
+from .csv_io import Note, joint_state_columns, read_table_recording, write_processed_table, write_table
 
-__all__ = ["OUTPUT_FORMATS", "check_output", "read_recording", "write_joint_states", "write_processed"]
+__all__ = ["OUTPUT_FORMATS", "TABLE_SUFFIXES", "check_output", "print_to_stderr", "read_recording", "write_joint_states", "write_processed"]
 
 TABLE_SUFFIXES = (".csv", ".txt", ".parquet")
 #: Output extension -> format.
 OUTPUT_FORMATS = {".mcap": "mcap", ".csv": "csv", ".parquet": "parquet"}
+
+
+def print_to_stderr(message: str) -> None:
+    """Print a one-line message for the user on stderr (the default ``note`` of read_recording)."""
+    print(message, file=sys.stderr)
 
 
 def read_recording(
@@ -43,17 +47,20 @@ def read_recording(
     *,
     topic: str = DEFAULT_TOPIC,
     arm: str | None = None,
-    rate_hz: float = DEFAULT_RATE_HZ,
+    rate_hz: float | None = None,
     progress: Progress | None = None,
+    note: Note | None = print_to_stderr,
 ) -> Recording:
-    """One arm's recording from a bag (joint states on ``topic``) or a table (``rate_hz`` if untimed).
+    """One arm's recording from a bag (joint states on ``topic``) or a table.
 
-    Raises RecordingFileError naming the path for anything wrong with the file's contents.
+    rate_hz: the sample rate of a table without a time column (None: estimated, and the estimate
+    said through ``note``; see :mod:`msg_adapters.csv_io`). Raises RecordingFileError naming the
+    path for anything wrong with the file's contents.
     """
     path = Path(path)
     try:
         if path.suffix in TABLE_SUFFIXES:
-            return read_table_recording(path, arm=arm, rate_hz=rate_hz)
+            return read_table_recording(path, arm=arm, rate_hz=rate_hz, note=note)
         return read_bag_recording(path, topic=topic, arm=arm, progress=progress)
     except RecordingError as err:
         raise RecordingFileError(f"{path}: {err}") from err
@@ -62,31 +69,15 @@ def read_recording(
 def check_output(path: str | os.PathLike[str], replace: bool = False) -> str:
     """The format :func:`write_processed` would write at ``path``, once checked that it may.
 
-    Refuses an unknown extension, a missing folder, a folder in the way, and an existing file
-    unless ``replace``.
+    Refuses an unknown extension, then what :func:`~baxter_dynamics_ros.output_files.check_outputs`
+    refuses (a missing folder, a folder in the way, an existing file unless ``replace``, a folder
+    the user may not write).
     """
     path = Path(path)
     if path.suffix not in OUTPUT_FORMATS:
         raise RecordingFileError(f"{path}: unknown output type {path.suffix!r}; use .mcap (ROS 2 bag), .csv or .parquet")
-    if not path.parent.is_dir():
-        raise RecordingFileError(f"{path}: the folder {path.parent} does not exist")
-    if path.is_dir():
-        raise RecordingFileError(f"{path}: is a folder; not replacing it, choose another output")
-    if path.exists() and not replace:
-        raise RecordingFileError(f"{path}: exists already; choose another output or pass --force")
+    check_outputs([path], replace=replace)
     return OUTPUT_FORMATS[path.suffix]
-
-
-@contextmanager
-def _staged(path: Path) -> Iterator[Path]:
-    """A fresh path in a temporary folder beside ``path``, moved onto ``path`` if the block succeeds."""
-    folder = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent))
-    try:
-        staged = folder / path.name
-        yield staged
-        os.replace(staged, path)
-    finally:
-        shutil.rmtree(folder, ignore_errors=True)
 
 
 def write_processed(
@@ -98,7 +89,7 @@ def write_processed(
     """
     path = Path(path)
     fmt = check_output(path, replace)
-    with _staged(path) as staged:
+    with staged_outputs([path]) as (staged,):
         if fmt == "mcap":
             write_processed_bag(staged, processed, input_topic)
         else:
@@ -121,7 +112,7 @@ def write_joint_states(
     Whole or not at all, as :func:`write_processed`."""
     path = Path(path)
     fmt = check_output(path, replace)
-    with _staged(path) as staged:
+    with staged_outputs([path]) as (staged,):
         if fmt == "mcap":
             write_joint_state_bag(staged, stamps_ns, {topic: (names, position, velocity, effort)})
         else:

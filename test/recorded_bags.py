@@ -23,7 +23,9 @@ START_NS = 1_700_000_000_123_456_789
 def joint_states(n: int, names: Sequence[str] = BAXTER_JOINTS, rate_hz: float = 100.0, seed: int = 0) -> dict:
     """Smooth states of every joint in ``names`` at rate_hz: stamps_ns (n,), position/velocity/effort (n, m).
 
-    Right-arm joints swing more than the others (so the right arm is the one detected).
+    Right-arm joints swing more than the others (so the right arm is the one detected), all within
+    Baxter's joint limits (e1's range is −0.05 to 2.618 rad: it swings about 1.2 rad), at speeds
+    and efforts a real Baxter gives.
     """
     rng = np.random.default_rng(seed)
     m = len(names)
@@ -34,7 +36,7 @@ def joint_states(n: int, names: Sequence[str] = BAXTER_JOINTS, rate_hz: float = 
     arg = 2 * np.pi * np.outer(t, freq) + phase
     return {
         "stamps_ns": START_NS + np.round(t * 1e9).astype(np.int64),
-        "position": amp * np.sin(arg),
+        "position": np.where([name.endswith("_e1") for name in names], 1.2, 0.0) + amp * np.sin(arg),
         "velocity": amp * 2 * np.pi * freq * np.cos(arg),
         "effort": rng.normal(0.0, 5.0, (n, m)),
     }

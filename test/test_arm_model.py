@@ -125,7 +125,7 @@ def test_malformed_model_file_names_the_field(tmp_path: Path, edit, match: str) 
 def test_bad_yaml(tmp_path: Path) -> None:
     path = tmp_path / "arm.yaml"
     path.write_text("dh: [0.27035, 0.0\nlinks: {", encoding="utf-8")
-    with pytest.raises(ModelFileError, match=r"arm\.yaml: not valid YAML"):
+    with pytest.raises(ModelFileError, match=r"arm\.yaml: the model file is not valid YAML"):
         load_arm_model(path)
 
 

@@ -319,7 +319,7 @@ def test_an_impact_is_a_half_sine(arm: ArmModel) -> None:
 
 
 def test_calibrate_cli(tmp_path: Path, pushed, capsys: pytest.CaptureFixture[str]) -> None:
-    free = simulate(SimulationSpec("random", 2.0, 100.0, seed=6))
+    free = simulate(SimulationSpec("random", 10.0, 100.0, seed=6))  # calibrate takes 10 s at least
     bag = tmp_path / "free.csv"
     rec = free.recording()
     write_joint_states(bag, rec.stamps_ns, rec.joint_names, rec.q, rec.qd, rec.effort)

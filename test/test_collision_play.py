@@ -70,7 +70,7 @@ def simulate(folder: Path, name: str, seed: int, duration_s: float, collisions: 
     spec = folder / f"{name}.yaml"
     spec.write_text(yaml.safe_dump({**SENSOR_SPEC, "collisions": collisions}))
     out = folder / f"{name}.mcap"
-    command = ["simulate", "--trajectory", "random", "--seed", str(seed), "--duration", str(duration_s), "--rate", str(RATE_HZ)]
+    command = ["simulate", "--trajectory", "random", "--seed", str(seed), "--duration", str(duration_s), "--rate-hz", str(RATE_HZ)]
     assert main([*command, "--effects", str(spec), "--out", str(out)]) == 0
     return out
 

@@ -310,6 +310,8 @@ def _corrupt(kind: str, samples: Samples) -> JointState | bytes:
         stamp = samples.stamps_ns[k - 1] - 5_000_000
     elif kind == "huge_velocity":
         vel[names.index("right_s1")] = 1e200
+    elif kind == "far_position":
+        pos[names.index("right_e1")] = -1.0
     elif kind == "truncated_bytes":
         return bytes(serialize_message(samples.message(k)))[:-100]
     return joint_state(names, stamp, pos, vel, eff)
@@ -326,7 +328,8 @@ BAD_INPUTS = {
     "repeated_joint": ("missing_joint", False),
     "duplicate_stamp": ("duplicate_stamp", False),
     "stamp_backwards": ("stamp_backwards", True),
-    "huge_velocity": ("non_finite_model", True),
+    "huge_velocity": ("implausible_input", False),
+    "far_position": ("implausible_input", False),
     "truncated_bytes": ("unreadable", False),
 }
 

@@ -62,7 +62,7 @@ def test_play_into_the_node_matches_process_sample_by_sample(tmp_path: Path, ros
         node.check_alive()
         pytest.fail(f"the node's outputs never appeared:\n{node.output()}")
 
-    play = _play(bag, "--rate", "2")
+    play = _play(bag, "--speed", "2")
     _, err = play.communicate(timeout=TIMEOUT_S)
     assert play.returncode == 0, err
     deadline = time.monotonic() + 10.0  # played in 1 s: the last outputs follow within milliseconds
@@ -106,7 +106,7 @@ def test_play_publishes_joint_states_and_clock_and_loops_until_interrupted(tmp_p
     first_ns = int(states["stamps_ns"][0])
 
     # Started with SIGINT ignored, as a background job: the player still stops at SIGINT, cleanly.
-    play = _play(bag, "--rate", "5", "--loop", sigint_ignored=True)
+    play = _play(bag, "--speed", "5", "--loop", sigint_ignored=True)
     # Looping: the clock comes back to the first stamp after the last one.
     clock.wait_for(lambda m: [_stamp_ns(c.clock) for c in m].count(first_ns) >= 2, TIMEOUT_S, "a second pass")
     play.send_signal(signal.SIGINT)
@@ -126,5 +126,5 @@ def test_play_errors_are_one_line(tmp_path: Path, capsys) -> None:
     bag = write_reference_bag(tmp_path / "a.bag", "ros1", joint_states(5))
     assert main(["play", str(bag), "--topics", "/nope"]) == 1
     assert capsys.readouterr().err.startswith(f"ERROR: {bag}: no topic /nope; joint-state topics in this bag: /robot/joint_states")
-    assert main(["play", str(bag), "--rate", "0"]) == 1
-    assert capsys.readouterr().err == "ERROR: --rate must be positive, got 0.0\n"
+    assert main(["play", str(bag), "--speed", "0"]) == 1
+    assert capsys.readouterr().err == "ERROR: --speed must be positive, got 0.0\n"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -18,7 +19,7 @@ from recorded_bags import (
     write_reference_bag,
 )
 
-from baxter_dynamics_ros.errors import RecordingError, RecordingFileError
+from baxter_dynamics_ros.errors import OutputError, RecordingError, RecordingFileError
 from baxter_dynamics_ros.recording import Recording, arm_joint_names, detect_arm
 from msg_adapters.bag_io import read_bag_recording, read_joint_state_messages
 from msg_adapters.csv_io import read_table_recording
@@ -243,14 +244,88 @@ def write_baxter_export(path: Path, states: dict, side: str = "left") -> Path:
     return path
 
 
+def estimate_in(text: str) -> float:
+    """The one rate in Hz a message names ("... 99.52 Hz ...")."""
+    (rate,) = re.findall(r"(\d+(?:\.\d+)?) Hz", text)
+    return float(rate)
+
+
 def test_baxter_export_table_reads_at_the_given_rate(tmp_path: Path) -> None:
-    states = joint_states(N, names=BAXTER_JOINTS)
+    states = joint_states(N, names=BAXTER_JOINTS, rate_hz=50.0)
     path = write_baxter_export(tmp_path / "export.csv", states)
-    rec = read_table_recording(path, rate_hz=50.0)
-    assert rec.side == "left" and rec.rate_hz == pytest.approx(50.0)
+    notes: list[str] = []
+    rec = read_table_recording(path, rate_hz=50.0, note=notes.append)
+    assert rec.side == "left" and rec.rate_hz == pytest.approx(50.0) and notes == []
     np.testing.assert_array_equal(rec.stamps_ns, np.arange(N) * 20_000_000)
     for got, want in zip((rec.q, rec.qd, rec.effort), columns(states, arm_joint_names("left"))):
         np.testing.assert_array_equal(got, want)
+
+
+def test_table_rate_is_estimated_said_and_a_disagreeing_rate_refused(tmp_path: Path) -> None:
+    states = joint_states(N, names=BAXTER_JOINTS, rate_hz=50.0)
+    path = write_baxter_export(tmp_path / "export.csv", states)
+    notes: list[str] = []
+    rec = read_table_recording(path, note=notes.append)
+    assert rec.rate_hz == pytest.approx(50.0, rel=1e-3)
+    assert len(notes) == 1 and notes[0].startswith(f"{path}: ") and "estimated" in notes[0]
+    assert estimate_in(notes[0]) == pytest.approx(rec.rate_hz, abs=0.005)
+    assert read_table_recording(path, rate_hz=54.0).rate_hz == pytest.approx(54.0)  # within 10 %: the user's rate
+    with pytest.raises(RecordingFileError, match=r"--rate-hz 56 disagrees with the sample rate estimated") as refused:
+        read_table_recording(path, rate_hz=56.0)
+    assert estimate_in(str(refused.value)) == pytest.approx(50.0, rel=1e-3)
+    with pytest.raises(RecordingFileError, match=r"--rate-hz 44 disagrees"):
+        read_table_recording(path, rate_hz=44.0)
+
+
+def test_a_table_whose_velocities_do_not_match_its_positions_needs_the_rate(tmp_path: Path) -> None:
+    states = joint_states(N, names=BAXTER_JOINTS)
+    states["velocity"] = np.zeros_like(states["velocity"])  # a dataset without velocities
+    path = write_baxter_export(tmp_path / "export.csv", states)
+    with pytest.raises(RecordingFileError, match="sample rate cannot be estimated.*pass --rate-hz"):
+        read_table_recording(path)
+    assert read_table_recording(path, rate_hz=100.0).rate_hz == pytest.approx(100.0)
+
+
+@pytest.mark.parametrize("layout", ["baxter export", "generic"])
+def test_a_table_whose_columns_name_no_arm_is_read_with_the_arm_given(tmp_path: Path, layout: str) -> None:
+    states = joint_states(N)
+    q, qd, tau = columns(states, arm_joint_names("right"))
+    prefixes = ("ang_", "vel_", "torq_") if layout == "baxter export" else ("position_", "velocity_", "effort_")
+    header = [p + j for p in prefixes for j in ("s0", "s1", "e0", "e1", "w0", "w1", "w2")]
+    path = tmp_path / "other_dataset.csv"
+    np.savetxt(path, np.hstack([q, qd, tau]), header=",".join(header), delimiter=",", comments="", fmt="%.17g")
+    with pytest.raises(RecordingFileError, match=f"the columns name no arm \\({prefixes[0]}s0 {prefixes[1]}s0 {prefixes[2]}s0 ...\\); pass --arm right\\|left"):
+        read_table_recording(path)
+    for side in ("right", "left"):
+        rec = read_table_recording(path, arm=side, note=lambda _: None)
+        assert rec.side == side and rec.joint_names == arm_joint_names(side)
+        np.testing.assert_array_equal(np.hstack([rec.q, rec.qd, rec.effort]), np.hstack([q, qd, tau]))
+        assert rec.rate_hz == pytest.approx(100.0, rel=1e-3)
+
+
+def test_simulated_500_hz_table_without_time_or_arm_names_reads_back_at_500_hz(tmp_path: Path) -> None:
+    """Written by the simulator and msg_adapters' writer, then made into another dataset's file:
+    the time columns dropped, the right arm's columns renamed without the arm."""
+    from baxter_dynamics_ros.simulator import SimulationSpec, simulate
+
+    result = simulate(SimulationSpec(trajectory="random", duration_s=3.0, rate_hz=500.0, seed=4, side="right"))
+    states = result.robot_joint_states()
+    written = tmp_path / "simulated.csv"
+    write_joint_states(written, states.stamps_ns, states.names, states.position, states.velocity, states.effort)
+    header, *rows = written.read_text().splitlines()
+    names = header.split(",")
+    keep = [k for k, name in enumerate(names) if name not in ("stamp_ns", "time_s")]
+    renamed = [names[k].replace("_right_", "_") for k in keep]
+    assert "position_s0" in renamed and "position_left_s0" in renamed and "stamp_ns" not in renamed
+    path = tmp_path / "other_dataset.csv"
+    path.write_text("\n".join([",".join(renamed), *(",".join(row.split(",")[k] for k in keep) for row in rows)]) + "\n")
+    notes: list[str] = []
+    rec = read_recording(path, arm="right", note=notes.append)
+    assert rec.side == "right" and len(rec) == 1500
+    assert rec.rate_hz == pytest.approx(500.0, rel=2e-3)
+    assert len(notes) == 1 and estimate_in(notes[0]) == pytest.approx(500.0, rel=2e-3)
+    np.testing.assert_array_equal(rec.q, result.q)
+    np.testing.assert_array_equal(rec.effort, result.effort)
 
 
 def test_generic_table_with_a_time_column_in_any_column_order(tmp_path: Path) -> None:
@@ -290,10 +365,15 @@ def test_table_errors_name_the_columns(tmp_path: Path) -> None:
 @pytest.mark.skipif(not REAL_FILES, reason=f"real Baxter recordings absent ({REAL_DATA})")
 @pytest.mark.parametrize("path", REAL_FILES, ids=lambda p: p.name[:20])
 def test_real_baxter_recordings_read_as_the_left_arm_at_100_hz(path: Path) -> None:
-    rec = read_table_recording(path)
+    """The files are 100 Hz (../shared/data/baxter_real/README.md) with no time column: the rate
+    estimated from their positions and velocities must be 100 Hz within 1 %."""
+    notes: list[str] = []
+    rec = read_table_recording(path, note=notes.append)
     raw = np.loadtxt(path, skiprows=1)
     assert rec.side == "left" and len(rec) == len(raw) > 5000
-    assert rec.rate_hz == pytest.approx(100.0)
+    assert rec.rate_hz == pytest.approx(100.0, rel=0.01)
+    assert len(notes) == 1 and notes[0].startswith(f"{path}: ") and estimate_in(notes[0]) == pytest.approx(rec.rate_hz, abs=0.005)
+    assert read_table_recording(path, rate_hz=100.0).rate_hz == pytest.approx(100.0)
     np.testing.assert_array_equal(np.hstack([rec.q, rec.qd, rec.effort]), raw)
     # The export's quantisation survives reading: torques on the 0.004 N·m grid.
     np.testing.assert_allclose(rec.effort / 0.004, np.round(rec.effort / 0.004), atol=1e-6)
@@ -306,7 +386,7 @@ def test_joint_states_written_by_extension_read_back_exactly(tmp_path: Path, suf
     write_joint_states(path, states["stamps_ns"], BAXTER_JOINTS, states["position"], states["velocity"], states["effort"])
     assert listing_of(tmp_path) == [path.name]
     assert_recording_is(read_recording(path), states, "right")
-    with pytest.raises(RecordingFileError, match="exists already; choose another output or pass --force"):
+    with pytest.raises(OutputError, match="exists already; choose another --out or pass --force"):
         write_joint_states(path, states["stamps_ns"], BAXTER_JOINTS, states["position"], states["velocity"], states["effort"])
 
 

@@ -98,8 +98,16 @@ def test_without_effort_there_is_no_residual(states) -> None:
     assert all(isinstance(r, ModelTorques) and r.residual is None for r in results)
 
 
+def smooth_positions(stamps: np.ndarray) -> np.ndarray:
+    """(N, 7) joint angles swinging by 0.3 rad about the middle of each joint's range."""
+    t = (stamps - stamps[0]) * 1e-9
+    phase = np.arange(7)
+    return 0.5 * (ARM.lower_rad + ARM.upper_rad) + 0.3 * np.sin(2 * np.pi * 0.7 * t[:, None] + phase)
+
+
 def test_without_velocity_it_is_differenced_from_positions_after_one_warm_up_sample(states) -> None:
-    stamps, q, _, effort = states
+    stamps, _, _, effort = states
+    q = smooth_positions(stamps)
     results = run(ResidualPipeline(ARM), stamps, q, None, effort)
     assert results[0] is SkipReason.VELOCITY_WARM_UP and not SkipReason.VELOCITY_WARM_UP.is_fault
     qd = np.diff(q, axis=0) / (np.diff(stamps) * 1e-9)[:, None]
@@ -134,14 +142,68 @@ def test_duplicate_stamp_is_skipped_and_backwards_stamp_resets(states) -> None:
     assert isinstance(restart, ModelTorques) and np.all(restart.qdd == 0)
 
 
-def test_non_finite_dynamics_skips_and_resets(states) -> None:
+@pytest.mark.parametrize(
+    ("field", "joint", "value"),
+    [
+        ("q", 3, ARM.upper_rad[3] + 0.11),  # beyond the limit by more than the 0.1 rad margin
+        ("q", 0, ARM.lower_rad[0] - 1e3),
+        ("qd", 1, 3.01 * ARM.velocity_limit_rad_s[1]),
+        ("qd", 6, -1e100),
+        ("effort", 4, 3.01 * ARM.effort_limit_nm[4]),
+        ("effort", 2, 1e30),
+    ],
+)
+def test_implausible_input_is_skipped_without_touching_the_state(states, field: str, joint: int, value: float) -> None:
     stamps, q, qd, effort = states
+    spoilt = {"q": q.copy(), "qd": qd.copy(), "effort": effort.copy()}
+    spoilt[field][3, joint] = value
     pipeline = ResidualPipeline(ARM)
-    run(pipeline, stamps[:5], q, qd, effort)
-    huge = qd[5].copy()
-    huge[1] = 1e200  # finite, but C(q, q̇) ~ q̇² overflows
-    assert pipeline.process(ArmSample(int(stamps[5]), q[5], huge, effort[5])) is SkipReason.NON_FINITE_MODEL
-    after = pipeline.process(ArmSample(int(stamps[6]), q[6], qd[6], effort[6]))
+    results = run(pipeline, stamps[:8], spoilt["q"], spoilt["qd"], spoilt["effort"])
+    assert results[3] is SkipReason.IMPLAUSIBLE_INPUT and SkipReason.IMPLAUSIBLE_INPUT.is_fault
+    keep = [0, 1, 2, 4, 5, 6, 7]
+    reference = ResidualPipeline(ARM)
+    expected = run(reference, stamps[keep], q[keep], qd[keep], effort[keep])
+    for name in ("qdd", "tau", "residual", "external_torque"):
+        np.testing.assert_array_equal(stacked([results[k] for k in keep], name), stacked(expected, name))
+
+
+def test_plausible_extremes_are_taken() -> None:
+    """At the bounds themselves: the limits plus the margin, three times the velocity and effort limits."""
+    pipeline = ResidualPipeline(ARM)
+    for k, (q, qd) in enumerate([(ARM.upper_rad + 0.099, 2.99 * ARM.velocity_limit_rad_s), (ARM.lower_rad - 0.099, -2.99 * ARM.velocity_limit_rad_s)]):
+        result = pipeline.process(ArmSample(T0_NS + k * DT_NS, q, qd, 2.99 * ARM.effort_limit_nm * (-1) ** k))
+        assert isinstance(result, ModelTorques)
+
+
+def test_a_jump_of_the_positions_without_velocity_is_skipped_and_differencing_goes_on(states) -> None:
+    stamps, _, _, effort = states
+    q = smooth_positions(stamps[:10])
+    jumped = q.copy()
+    jumped[4, 2] += 0.5  # 0.5 rad in 10 ms: 50 rad/s
+    results = run(ResidualPipeline(ARM), stamps[:10], jumped, None, effort)
+    assert [r for r in results if isinstance(r, SkipReason)] == [SkipReason.VELOCITY_WARM_UP, *[SkipReason.IMPLAUSIBLE_INPUT] * 2]
+    assert results[4] is results[5] is SkipReason.IMPLAUSIBLE_INPUT  # into the jump and out of it
+    for k in (6, 7, 8, 9):  # differenced from sample 5 on, as if nothing had happened
+        np.testing.assert_allclose(results[k].qd, (q[k] - q[k - 1]) / ((stamps[k] - stamps[k - 1]) * 1e-9), rtol=1e-12)
+
+
+def test_non_finite_dynamics_skips_resets_and_is_counted(states) -> None:
+    """Plausible input cannot overflow the rigid model; an absurd effects file can (damping 1e308 N·m·s/rad)."""
+    from baxter_dynamics_ros.compensation import Compensation
+    from baxter_dynamics_ros.effects import ViscousFriction
+
+    stamps, q, qd, effort = states
+    absurd = Compensation(ARM, (ViscousFriction(damping_nm_s_rad=[1e308] * 7),))
+    pipeline = ResidualPipeline(ARM, compensation=absurd)
+    monitor = HealthMonitor(ARM.joint_names, "/robot/joint_states")
+    for k in range(3):  # 2 rad/s: a plausible speed; times 1e308 it overflows
+        result = pipeline.process(ArmSample(int(stamps[k]), q[k], np.full(7, 2.0), effort[k]))
+        assert result is SkipReason.NON_FINITE_MODEL
+        monitor.record(result, 10)
+    values = _values(monitor.report(1.0))
+    assert values["resets_total.non_finite_state"] == "3" and values["skipped_total.non_finite_model"] == "3"
+    # Reset each time: nothing of it stays. With the damping at rest (q̇ = 0) the sample goes through, from q̈ = 0.
+    after = pipeline.process(ArmSample(int(stamps[3]), q[3], np.zeros(7), effort[3]))
     assert isinstance(after, ModelTorques) and np.all(after.qdd == 0) and np.all(np.isfinite(after.tau))
 
 
@@ -221,6 +283,19 @@ def test_health_levels() -> None:
     assert values["skipped_total.duplicate_stamp"] == "1" and values["resets_total.clock_jump"] == "1"
 
 
+def test_health_is_never_ok_with_a_residual_rms_that_is_not_finite() -> None:
+    monitor = HealthMonitor(ARM.joint_names, "/robot/joint_states")
+    huge = np.full(7, 1.0)
+    huge[2] = 1e200  # its square overflows
+    monitor.record(_torques(huge), 10)
+    monitor.record(_torques(np.ones(7)), 10)
+    report = monitor.report(1.0)
+    assert report.level is Health.WARN and "residual RMS not finite at right_e0" in report.message
+    assert _values(report)["residual_rms_nm.right_e0"] == "inf"
+    monitor.record(_torques(np.ones(7)), 10)
+    assert monitor.report(1.0).level is Health.OK  # a new window
+
+
 # ----------------------------------------------------------------------------- settings
 def test_settings_defaults_are_the_packaged_parameters_file() -> None:
     raw = yaml.safe_load((REPO / "config" / "baxter_dynamics.yaml").read_text())
@@ -243,6 +318,11 @@ def test_settings_defaults_are_the_packaged_parameters_file() -> None:
         ({"diagnostics_period_s": -1.0}, "diagnostics_period_s"),
         ({"observer_gain_1_s": 0.0}, "observer_gain_1_s"),
         ({"calibration_window_s": math.inf}, "calibration_window_s"),
+        ({"cutoff_hz": 1e300}, "cutoff_hz: must be from 0.1 to 1000, got 1e"),
+        ({"qos_depth": 10**9}, "qos_depth: must be from 1 to 10000"),
+        ({"observer_gain_1_s": 1e4}, "observer_gain_1_s"),
+        ({"diagnostics_period_s": 1e9}, "diagnostics_period_s"),
+        ({"calibration_window_s": 61.0}, "calibration_window_s: must be from 1 to 60"),
     ],
 )
 def test_settings_refuse_bad_values_naming_the_field(changes: dict, match: str) -> None:

@@ -145,7 +145,7 @@ def test_too_stiff_friction_is_refused() -> None:
 
 def _simulate_cli(out: Path, *extra: str) -> int:
     return main(["simulate", "--trajectory", "paper_xyz", "--effects", str(CONFIG / "effects_example.yaml"),
-                 "--duration", "2", "--rate", "100", "--out", str(out), *extra])  # fmt: skip
+                 "--duration", "2", "--rate-hz", "100", "--out", str(out), *extra])  # fmt: skip
 
 
 def test_same_seed_same_file_and_ground_truth(tmp_path: Path, arm: ArmModel) -> None:
@@ -171,7 +171,7 @@ def test_same_seed_same_file_and_ground_truth(tmp_path: Path, arm: ArmModel) -> 
 
 def test_csv_output_reads_back(tmp_path: Path) -> None:
     out = tmp_path / "sim.csv"
-    assert main(["simulate", "--trajectory", "random", "--duration", "1", "--rate", "50", "--arm", "left", "--out", str(out)]) == 0
+    assert main(["simulate", "--trajectory", "random", "--duration", "1", "--rate-hz", "50", "--arm", "left", "--out", str(out)]) == 0
     recording = read_recording(out)
     again = run(duration_s=1.0, rate_hz=50.0, side="left")
     assert recording.side == "left"

@@ -1,0 +1,127 @@
+"""Outputs written whole or not at all: every command's files go through here.
+
+:func:`check_outputs` refuses, before any work, what would make writing fail: a missing folder, a
+file where the folder should be, a folder where a file should be, an existing file (unless
+replacing), a folder the user may not write. :func:`staged_outputs` then hands out fresh paths in
+a temporary folder beside the targets (``.<name>.*.partial``, one per target folder, on the same
+filesystem) and, when the block succeeds, moves them all into place; if the block, or one of the
+moves, fails, the files already moved are taken back (replaced ones restored) and nothing new is
+left. A folder of outputs that does not exist yet (``diagnose --out DIR``) is staged whole and
+renamed into place in one step.
+
+Every OSError on the way (no permission, no space, a read-only filesystem) becomes one
+:class:`~baxter_dynamics_ros.errors.OutputError` naming the path.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from pathlib import Path
+
+from .errors import OutputError
+
+__all__ = ["check_outputs", "staged_outputs"]
+
+
+def _by_folder(targets: Sequence[Path]) -> dict[Path, list[Path]]:
+    """The targets grouped by their folder, in order of first appearance."""
+    groups: dict[Path, list[Path]] = {}
+    for target in targets:
+        groups.setdefault(target.parent, []).append(target)
+    return groups
+
+
+def _staging_folder(folder: Path) -> Path:
+    """A new temporary folder beside ``folder``'s contents (inside it, or beside it when it is to be made)."""
+    where = folder if folder.is_dir() else folder.parent
+    try:
+        return Path(tempfile.mkdtemp(prefix=f".{folder.name}.", suffix=".partial", dir=where))
+    except OSError as err:
+        raise OutputError(f"{folder}: cannot write here ({err.strerror or err})") from err
+
+
+def check_outputs(targets: Sequence[str | os.PathLike[str]], *, replace: bool = False, option: str = "--out") -> None:
+    """Refuse outputs that could not be written whole (module docstring); nothing is left behind.
+
+    targets: the files to write; their folders may be missing if the folders' parents exist (they
+    are then created); replace: whether existing target files may be replaced (``--force``);
+    option: the command-line option naming the output, for the messages.
+    """
+    paths = [Path(t) for t in targets]
+    for folder, files in _by_folder(paths).items():
+        if folder.exists() and not folder.is_dir():
+            raise OutputError(f"{folder}: is a file, not a folder; choose another {option}")
+        if not folder.exists() and not folder.parent.is_dir():
+            raise OutputError(f"{folder}: the folder {folder.parent} does not exist")
+        for path in files:
+            if path.is_dir():
+                raise OutputError(f"{path}: is a folder; not replacing it, choose another {option}")
+        existing = [p.name for p in files if p.exists()]
+        if existing and not replace:
+            if len(paths) == 1:
+                raise OutputError(f"{paths[0]}: exists already; choose another {option} or pass --force")
+            raise OutputError(f"{folder}: holds earlier outputs ({', '.join(existing)}); choose another {option} or pass --force")
+        shutil.rmtree(_staging_folder(folder))  # may we write there?
+
+
+@contextmanager
+def staged_outputs(targets: Sequence[str | os.PathLike[str]]) -> Iterator[list[Path]]:
+    """Fresh paths, one per target (same names), to write in the block; moved onto the targets together.
+
+    targets: files in one or more folders (see :func:`check_outputs`, which should have been called
+    first). Existing targets are replaced only once every new file is in place.
+    """
+    paths = [Path(t) for t in targets]
+    stagings: dict[Path, Path] = {}  # folder -> its staging folder
+    try:
+        where: dict[Path, Path] = {}  # target -> staged path
+        for folder, files in _by_folder(paths).items():
+            stagings[folder] = staging = _staging_folder(folder)
+            inner = staging if folder.exists() else staging / folder.name
+            inner.mkdir(exist_ok=True)
+            where.update({target: inner / target.name for target in files})
+        try:
+            yield [where[p] for p in paths]
+            _commit(stagings, where)
+        except OSError as err:
+            staged_as = {str(new): target for target, new in where.items()}
+            shown = staged_as.get(str(err.filename), paths[0].parent if len(paths) > 1 else paths[0])
+            raise OutputError(f"{shown}: cannot write the outputs ({err.strerror or err}); nothing was written") from err
+    finally:
+        for staging in stagings.values():
+            shutil.rmtree(staging, ignore_errors=True)
+
+
+def _commit(stagings: dict[Path, Path], where: dict[Path, Path]) -> None:
+    """Move every staged file onto its target, a new folder renamed into place whole; all or none
+    (moved files taken back, replaced ones restored, new folders moved back)."""
+    for target in where:
+        if target.is_dir():
+            raise IsADirectoryError(21, "a folder is in the way", str(target))
+    undo: list[tuple[Path, Path | None]] = []  # (what was put in place, where its predecessor went)
+    try:
+        for folder, staging in stagings.items():
+            if (staging / folder.name).is_dir() and not folder.exists():
+                os.rename(staging / folder.name, folder)
+                undo.append((folder, staging / folder.name))  # undone by renaming the folder back
+                continue
+            for k, (target, new) in enumerate((t, n) for t, n in where.items() if t.parent == folder):
+                old = None
+                if target.exists():
+                    old = staging / f".replaced-{k}"
+                    os.replace(target, old)
+                undo.append((target, old))
+                os.replace(new, target)
+    except BaseException:
+        for placed, previous in reversed(undo):
+            if placed.is_dir():
+                os.rename(placed, previous)  # a new folder back into its staging folder
+            elif previous is not None:
+                os.replace(previous, placed)
+            elif placed.exists():
+                placed.unlink()
+        raise

@@ -1,0 +1,270 @@
+"""Property-based fuzz of the file readers (issue 12): whatever a file holds, reading it gives a
+recording / model / effects / thresholds, or the package's own error — never another exception.
+
+Inputs: random bytes; random text from the characters these formats are made of; and real files
+(the packaged arm model and effects example, a thresholds file as `calibrate` writes it, a table
+in each layout) with one part replaced, removed or added, written back as text.
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from recorded_bags import BAXTER_JOINTS, joint_states
+
+from baxter_dynamics_ros import load_arm_model
+from baxter_dynamics_ros.collision import Thresholds, read_thresholds, write_thresholds
+from baxter_dynamics_ros.compensation import load_compensation
+from baxter_dynamics_ros.effects import load_effects
+from baxter_dynamics_ros.errors import BaxterDynamicsError
+from baxter_dynamics_ros.recording import Recording
+from baxter_dynamics_ros.simulate_command import load_spec
+from msg_adapters.recording_files import read_recording
+
+pytestmark = pytest.mark.filterwarnings("error")  # a warning on stderr is no more welcome than a traceback
+REPO = Path(__file__).resolve().parent.parent
+ARM = load_arm_model("right")
+FUZZ = settings(max_examples=150, deadline=None, database=None, suppress_health_check=[HealthCheck.too_slow])
+_folder = Path(tempfile.mkdtemp(prefix="baxter-fuzz-"))  # one file rewritten per example; hypothesis reuses no fixture
+
+
+def _write(name: str, data: bytes | str) -> Path:
+    path = _folder / name
+    path.write_bytes(data.encode("utf-8", "surrogatepass") if isinstance(data, str) else data)
+    return path
+
+
+def _thresholds_text() -> str:
+    path = _folder / "thresholds-source.yaml"
+    path.unlink(missing_ok=True)
+    write_thresholds(path, Thresholds(np.full(7, 2.0), np.full(7, 0.5)))
+    return path.read_text()
+
+
+YAML_READERS = {
+    "arm model": (lambda p: load_arm_model(p), (REPO / "config" / "baxter_right_arm.yaml").read_text()),
+    "effects": (lambda p: load_effects(p), (REPO / "config" / "effects_example.yaml").read_text()),
+    "compensation": (lambda p: load_compensation(ARM, p), (REPO / "config" / "effects_example.yaml").read_text()),
+    "simulation spec": (lambda p: load_spec(p), (REPO / "config" / "effects_example.yaml").read_text()),
+    "thresholds": (lambda p: read_thresholds(p), _thresholds_text()),
+}
+
+
+def _only_our_errors(read, path: Path) -> None:
+    try:
+        read(path)
+    except BaxterDynamicsError as err:
+        assert str(err), "an error without a message"
+    # Anything else propagates and fails the example, with hypothesis' shrunk input.
+
+
+# ----------------------------------------------------------------------------------- values
+scalars = st.one_of(
+    st.none(),
+    st.booleans(),
+    st.integers(-(2**70), 2**70),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.sampled_from([0, -1, 1e308, -1e308, 5e-324, "", "nan", ".inf", "right", "left", "s1", "2024-13-45"]),
+    st.text(max_size=8),
+)
+values = st.recursive(
+    scalars,
+    lambda inner: st.lists(inner, max_size=8) | st.dictionaries(st.text(max_size=8) | st.sampled_from(["s0", "w2", "xx", "mass_kg"]), inner, max_size=5),
+    max_leaves=20,
+)
+yaml_text = st.text(st.sampled_from(list("{}[]:,-#&*!|>'\"%@`? \n\t.0123456789eE+abcdefsxyz_")), max_size=200)
+
+
+def _paths(tree, prefix=()):
+    """Every (path, value) of a parsed YAML tree, the root included."""
+    yield prefix, tree
+    items = tree.items() if isinstance(tree, dict) else enumerate(tree) if isinstance(tree, list) else ()
+    for key, child in items:
+        yield from _paths(child, (*prefix, key))
+
+
+@st.composite
+def mutated_yaml(draw, source: str) -> str:
+    """``source`` parsed, one node replaced by a random value, removed, or given a new key; dumped."""
+    tree = yaml.safe_load(source)
+    paths = list(_paths(tree))
+    path, _ = draw(st.sampled_from(paths))
+    action = draw(st.sampled_from(["replace", "remove", "add"]))
+    if not path:
+        return yaml.safe_dump(draw(values))
+    parent = tree
+    for key in path[:-1]:
+        parent = parent[key]
+    if action == "replace":
+        parent[path[-1]] = draw(values)
+    elif action == "remove":
+        del parent[path[-1]]
+    elif isinstance(parent, dict):
+        parent[draw(st.text(max_size=8))] = draw(values)
+    else:
+        parent.append(draw(values))
+    return yaml.safe_dump(tree, allow_unicode=True)
+
+
+@pytest.mark.parametrize("reader", YAML_READERS)
+@pytest.mark.parametrize("kind", ["bytes", "text"])
+def test_yaml_readers_on_random_bytes_and_text(reader: str, kind: str) -> None:
+    read, _ = YAML_READERS[reader]
+    data = st.binary(max_size=400) if kind == "bytes" else yaml_text | st.text(max_size=100)
+
+    @FUZZ
+    @given(data)
+    def check(content: bytes | str) -> None:
+        _only_our_errors(read, _write("random.yaml", content))
+
+    check()
+
+
+@pytest.mark.parametrize("reader", YAML_READERS)
+def test_yaml_readers_on_real_files_with_one_part_changed(reader: str) -> None:
+    read, source = YAML_READERS[reader]
+    read(_write("real.yaml", source))  # the file itself reads
+
+    @FUZZ
+    @given(mutated_yaml(source))
+    def check(text: str) -> None:
+        _only_our_errors(read, _write("mutated.yaml", text))
+
+    check()
+
+
+def test_yaml_nested_too_deep_is_our_error() -> None:
+    for reader, (read, _) in YAML_READERS.items():
+        with pytest.raises(BaxterDynamicsError, match="not valid YAML"):
+            read(_write("deep.yaml", "[" * 100_000))
+
+
+# ----------------------------------------------------------------------------------- tables
+def _table(layout: str, delimiter: str) -> str:
+    states = joint_states(30, names=BAXTER_JOINTS)
+    prefixes = ("ang_", "vel_", "torq_") if layout == "baxter export" else ("position_", "velocity_", "effort_")
+    columns = {"stamp_ns": states["stamps_ns"]} if layout == "generic" else {}
+    for prefix, key in zip(prefixes, ("position", "velocity", "effort")):
+        columns.update({f"{prefix}{name}": states[key][:, k] for k, name in enumerate(BAXTER_JOINTS) if name.startswith("right_")})
+    rows = [delimiter.join(repr(float(v)) if not isinstance(v, np.integer) else str(v) for v in row) for row in zip(*columns.values())]
+    return "\n".join([delimiter.join(columns), *rows]) + "\n"
+
+
+TABLES = [_table("baxter export", " "), _table("generic", ",")]
+tokens = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True).map(repr),
+    st.sampled_from(["", "nan", "inf", "-inf", "1e999", "-", "0x10", "1,5", "١", "NaN", "True", "stamp_ns", "ang_s0"]),
+    st.integers(-(2**70), 2**70).map(str),
+    st.text(max_size=5),
+)
+
+
+@st.composite
+def mutated_table(draw) -> str:
+    """A real table with cells, whole lines or header names changed, lines dropped or added."""
+    lines = draw(st.sampled_from(TABLES)).splitlines()
+    delimiter = "," if "," in lines[0] else " "
+    for _ in range(draw(st.integers(1, 4))):
+        k = draw(st.integers(0, len(lines) - 1))
+        action = draw(st.sampled_from(["cell", "line", "drop", "add", "header"]))
+        cells = lines[k].split(delimiter)
+        if action == "cell":
+            cells[draw(st.integers(0, len(cells) - 1))] = draw(tokens)
+            lines[k] = delimiter.join(cells)
+        elif action == "line":
+            lines[k] = delimiter.join(draw(st.lists(tokens, max_size=30)))
+        elif action == "drop" and len(lines) > 1:
+            del lines[k]
+        elif action == "add":
+            lines.insert(k, delimiter.join(draw(st.lists(tokens, max_size=30))))
+        else:
+            names = lines[0].split(delimiter)
+            names[draw(st.integers(0, len(names) - 1))] = draw(st.sampled_from(["time_s", "stamp_ns", "ang_s0", "position_left_s0", "", "x"]) | tokens)
+            lines[0] = delimiter.join(names)
+    return "\n".join(lines) + draw(st.sampled_from(["\n", "", "\n\n", "\r\n"]))
+
+
+def _read_any(path: Path, arm, rate_hz) -> None:
+    try:
+        result = read_recording(path, arm=arm, rate_hz=rate_hz, note=None)
+    except BaxterDynamicsError as err:
+        assert str(err)
+        return
+    assert isinstance(result, Recording) and len(result) >= 2
+    assert all(np.isfinite(a).all() for a in (result.q, result.qd, result.effort))
+
+
+options = st.tuples(st.sampled_from([None, "right", "left"]), st.sampled_from([None, 100.0, 0.0, -5.0, math.nan, math.inf]))
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".txt", ".parquet"])
+def test_table_reader_on_random_bytes(suffix: str) -> None:
+    @FUZZ
+    @given(st.binary(max_size=600), options)
+    def check(data: bytes, option) -> None:
+        _read_any(_write(f"random{suffix}", data), *option)
+
+    check()
+
+
+def test_table_reader_on_random_text() -> None:
+    @FUZZ
+    @given(st.text(st.sampled_from(list(" ,\t\n-+.eE0123456789abgnrtvqsw_"))) | st.text(max_size=300), options)
+    def check(text: str, option) -> None:
+        _read_any(_write("random.csv", text), *option)
+
+    check()
+
+
+def test_table_reader_on_real_tables_with_parts_changed() -> None:
+    for table in TABLES:
+        assert read_recording(_write("real.csv", table), note=None).side == "right"
+
+    @FUZZ
+    @given(mutated_table(), options)
+    def check(text: str, option) -> None:
+        _read_any(_write("mutated.csv", text), *option)
+
+    check()
+
+
+@st.composite
+def parquet_tables(draw) -> bytes:
+    """A real Parquet file whose columns have the layouts' names and any type: numbers, text, nulls."""
+    import io
+
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    n = draw(st.integers(0, 12))
+    joints = [name for name in BAXTER_JOINTS if name.startswith("right_")]
+    names = draw(st.lists(st.sampled_from(["stamp_ns", "time_s", *(f"{p}{j}" for p in ("position_", "velocity_", "effort_") for j in joints)]), unique=True, max_size=24))
+    cells = {
+        "float": st.floats(allow_nan=True, allow_infinity=True) | st.none(),
+        "int": st.integers(-(2**63), 2**63 - 1),
+        "text": st.text(max_size=4),
+        "bool": st.booleans(),
+    }
+    columns = {}
+    for name in names:
+        kind = draw(st.sampled_from(list(cells)))
+        columns[name] = pa.array(draw(st.lists(cells[kind], min_size=n, max_size=n)), type={"float": pa.float64(), "int": pa.int64(), "text": pa.string(), "bool": pa.bool_()}[kind])
+    buffer = io.BytesIO()
+    pq.write_table(pa.table(columns) if columns else pa.table({"x": pa.array([], pa.float64())}), buffer)
+    return buffer.getvalue()
+
+
+def test_table_reader_on_parquet_files_of_any_column_types() -> None:
+    @FUZZ
+    @given(parquet_tables(), options)
+    def check(data: bytes, option) -> None:
+        _read_any(_write("random.parquet", data), *option)
+
+    check()
