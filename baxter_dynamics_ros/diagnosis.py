@@ -76,6 +76,8 @@ class EffectReport:
 
     params / params_std: the fitted parameters by name and their standard deviation (the fit's
     covariance with effective samples, plus the spread across the cross-validation folds);
+    params_fold_spread: that spread alone (jackknife SD of the folds' fits; the inertial effects'
+    parameters are in ``inertial``);
     share: the part of the gap it explains, N·m² per sample summed over the joints, the rank's key:
     for acceleration_noise the rigid residual's fall from raw to filtered q̈; for a physical effect
     its Shapley share of the training residual's fall from the denoised rigid model to the selected
@@ -109,6 +111,7 @@ class EffectReport:
     drift: dict | None = None
     inertial: list[dict] | None = None
     share: float = 0.0
+    params_fold_spread: dict[str, float] = field(default_factory=dict)
 
     @property
     def uncertain(self) -> bool:
@@ -192,6 +195,7 @@ class DiagnosisResult:
                     "joints": list(e.joints),
                     "params": e.params,
                     "params_std": e.params_std,
+                    "params_fold_spread": e.params_fold_spread,
                     "share_nm2": e.share,
                     "cv_gain_nm2": e.cv_gain,
                     "folds_selected": e.folds_selected,
@@ -407,14 +411,18 @@ def _term_values(ctx: _Context, model: Model, fit: Fit, term: Term) -> tuple[np.
     return values, position
 
 
+def _fold_spread(folds: list[Fit], positions: np.ndarray) -> np.ndarray:
+    """Jackknife SD of the parameters at positions across the cross-validation folds' fits."""
+    if len(folds) < 2:
+        return np.zeros(len(positions))
+    xs = np.array([f.x[positions] for f in folds])
+    k = len(folds)
+    return np.sqrt((k - 1) / k * np.sum((xs - xs.mean(axis=0)) ** 2, axis=0))
+
+
 def _spread(fit: Fit, folds: list[Fit], positions: np.ndarray) -> np.ndarray:
-    """SD of the parameters at positions: fit covariance plus the jackknife spread of the folds."""
-    var = np.diag(fit.cov_x)[positions].copy()
-    if len(folds) > 1:
-        xs = np.array([f.x[positions] for f in folds])
-        k = len(folds)
-        var += (k - 1) / k * np.sum((xs - xs.mean(axis=0)) ** 2, axis=0)
-    return np.sqrt(var)
+    """SD of the parameters at positions: fit covariance plus the spread of the folds."""
+    return np.sqrt(np.diag(fit.cov_x)[positions] + _fold_spread(folds, positions) ** 2)
 
 
 def _selected_reports(ctx: _Context, ev: Evaluation, fold_models: list[Model]) -> list[EffectReport]:
@@ -430,10 +438,13 @@ def _selected_reports(ctx: _Context, ev: Evaluation, fold_models: list[Model]) -
         acting = position >= 0
         std = np.zeros(len(values))
         std[acting] = _spread(ev.fit, ev.folds, position[acting])
+        fold_std = np.zeros(len(values))
+        fold_std[acting] = _fold_spread(ev.folds, position[acting])
         phi = ev.fit.phi.get(term.candidate)
         effect = _effect_of(cand, values, phi)
         params = {k: float(v) for k, v in zip(names, values)}
         params_std = {k: float(s) for k, s, a in zip(names, std, acting) if a}
+        params_fold_spread = {k: float(s) for k, s, a in zip(names, fold_std, acting) if a}
         inertial = None
         if cand.kind == "inertial":
             params, params_std, inertial = _inertial_params(ctx, cand, term, ev.fit)
@@ -443,13 +454,11 @@ def _selected_reports(ctx: _Context, ev: Evaluation, fold_models: list[Model]) -
         test_without = ctx.test_rms(without)
         joints = tuple(ctx.arm.joint_names[j] for j in term.joints)
         verdict = {name: _verdict(test_without[j], final_test[j]) for j, name in enumerate(ctx.arm.joint_names) if name in joints}
-        counts = [fm.term(term.candidate) for fm in fold_models]
         same_effect = [next((t for t in fm.terms if ctx.layout.candidates[t.candidate].name == cand.name), None) for fm in fold_models]
         folds_selected = sum(t is not None for t in same_effect)
         joint_folds = {}
         if cand.kind == "joint":
             joint_folds = {ctx.arm.joint_names[j]: sum(t is not None and j in t.joints for t in same_effect) for j in term.joints}
-        del counts
         drift = _offset_drift(ctx, final, ev.fit, term) if cand.name == "torque_offset" else None
         reason = f"removes {gain:.4g} N·m² per sample of held-out error (cross-validated); at {_short(joints)}"
         if drift is not None and drift["drifting"]:
@@ -458,7 +467,7 @@ def _selected_reports(ctx: _Context, ev: Evaluation, fold_models: list[Model]) -
             EffectReport(
                 cand.name, cand.variant, True, 0, reason, params, params_std, joints, gain, final_test, final_test, effect,
                 folds_selected=folds_selected, folds=len(fold_models), joint_folds=joint_folds, test_verdict=verdict,
-                drift=drift, inertial=inertial,
+                drift=drift, inertial=inertial, params_fold_spread=params_fold_spread,
             )  # fmt: skip
         )
     return out

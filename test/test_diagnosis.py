@@ -223,7 +223,7 @@ def test_diagnose_command_writes_report_json_and_effects(tmp_path: Path) -> None
     doc = json.loads((out / "diagnosis.json").read_text())
     assert doc["joints"] == [f"left_{j}" for j in ("s0", "s1", "e0", "e1", "w0", "w1", "w2")]
     assert len(doc["baseline"]["test_rms"]) == 7 and len(doc["final"]["test_rms"]) == 7 and len(doc["denoised"]["test_rms"]) == 7
-    keys = {"name", "joints", "params", "params_std", "test_rms_after", "selected", "uncertain", "folds_selected", "folds", "share_nm2", "test_verdict"}
+    keys = {"name", "joints", "params", "params_std", "params_fold_spread", "test_rms_after", "selected", "uncertain", "folds_selected", "folds", "share_nm2", "test_verdict"}
     assert keys <= set(doc["effects"][0])
     assert {"worse_than_denoised", "warnings"} <= set(doc["verdict"]) and doc["folds"] == 3 and doc["search"]
     assert doc["effects"][0]["name"] == "s1_spring"
