@@ -20,14 +20,21 @@ enters as the base acceleration Ẇ_0 = [[0, −g], [0, 0]], so one forward and 
 give τ; G, C and M reuse the same sweep. Cost per sample is O(n) for τ and O(n²) for M,
 against O(n⁴) for the literal triple sums.
 
-Kernels are compiled with numba and loop over samples; the front functions take (..., 7)
-arrays, check them and keep the leading batch shape. The batch kernels (``batch_*``,
-:func:`cholesky_solve`) are public too, for per-sample loops (the live node, the simulator's
-integrator) that cannot afford the fronts' checks: they take C-contiguous float64 (M, 7) arrays,
-write into preallocated outputs, and check nothing.
+Kernels are compiled with numba and work on blocks of LANES samples: each quantity of a block is
+held lane-major in one scratch array, so that every innermost loop runs over the samples of the
+block and compiles to SIMD instructions (sin and cos too: a polynomial kernel instead of libm's
+scalar calls). The batch kernels of τ, G and M split batches of PARALLEL_MIN_SAMPLES samples or
+more over numba's thread pool (all cores by default, ``numba.set_num_threads`` or
+``NUMBA_NUM_THREADS`` to change); smaller batches and single samples stay on the calling thread.
+The front functions take (..., 7) arrays, check them and keep the leading batch shape. The batch
+kernels (``batch_*``, :func:`cholesky_solve`) are public too, for per-sample loops (the live node,
+the simulator's integrator) that cannot afford the fronts' checks: they take C-contiguous float64
+(M, 7) arrays, write into preallocated outputs, and check nothing.
 """
 
 from __future__ import annotations
+
+import os
 
 import numpy as np
 from numba import njit, prange
@@ -62,7 +69,13 @@ quantity (lane-major), so that every innermost loop runs over samples at fixed o
 array and LLVM compiles it to SIMD instructions without run-time aliasing checks."""
 PARALLEL_MIN_SAMPLES = 4096
 """Batches of at least this many samples are split over all cores (numba's thread pool); smaller
-ones, and single samples, run on the calling thread, so they never wait for the pool to start."""
+ones, and single samples, run on the calling thread, so they never wait for the pool to start.
+4096 samples are four chunks of _CHUNK_SAMPLES (two per core here) and take 0.2–0.5 ms on one
+core, against a few µs to wake the pool (``./dev bench dynamics`` prints both)."""
+# numba's OpenMP pool spins while it waits; on a machine shared with other busy processes a
+# spinning worker can hold the split batch up for a scheduler time slice (8 ms measured here on
+# 4096 samples, against 0.5 ms on one thread). Unless the user chose otherwise, workers sleep.
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 _CHUNK_SAMPLES = 64 * LANES  # rows per task of the thread pool, each with its own scratch
 _PAIRS = N * (N + 1) // 2  # M's upper triangle, packed: (i, k), i ≤ k, at k (k + 1) / 2 + i
 _CONTRACT = {"contract"}  # fused multiply-adds only: no reordering, no assumption about NaN or inf
