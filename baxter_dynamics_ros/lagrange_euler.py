@@ -23,13 +23,13 @@ against O(n⁴) for the literal triple sums.
 Kernels are compiled with numba and work on blocks of LANES samples: each quantity of a block is
 held lane-major in one scratch array, so that every innermost loop runs over the samples of the
 block and compiles to SIMD instructions (sin and cos too: a polynomial kernel instead of libm's
-scalar calls). The batch kernels of τ, G and M split batches of PARALLEL_MIN_SAMPLES samples or
-more over numba's thread pool (all cores by default, ``numba.set_num_threads`` or
-``NUMBA_NUM_THREADS`` to change); smaller batches and single samples stay on the calling thread.
-The front functions take (..., 7) arrays, check them and keep the leading batch shape. The batch
-kernels (``batch_*``, :func:`cholesky_solve`) are public too, for per-sample loops (the live node,
-the simulator's integrator) that cannot afford the fronts' checks: they take C-contiguous float64
-(M, 7) arrays, write into preallocated outputs, and check nothing.
+scalar calls). The front functions take (..., 7) arrays, check them and keep the leading batch shape; those of
+τ, C, G and M split batches of PARALLEL_MIN_SAMPLES samples or more over numba's thread pool (all
+cores by default; ``numba.set_num_threads`` or ``NUMBA_NUM_THREADS`` to change), smaller batches
+and single samples stay on the calling thread. The batch kernels (``batch_*``,
+:func:`cholesky_solve`) are public too, for per-sample loops (the live node, the simulator's
+integrator) that cannot afford the fronts' checks: they take C-contiguous float64 (M, 7) arrays,
+write into preallocated outputs, check nothing, and run on the calling thread.
 """
 
 from __future__ import annotations
@@ -545,55 +545,52 @@ def _chunks(n: int) -> int:
 
 
 @njit(cache=True, parallel=True)
-def _inverse_dynamics_parallel(K, P, g, q, qd, qdd, use_gravity, out) -> None:
+def _inverse_dynamics_parallel(dh, J, g, q, qd, qdd, use_gravity, out) -> None:
+    """:func:`batch_inverse_dynamics` with the rows split over numba's thread pool."""
+    K, P = _dh_constants(dh), _inertia_constants(J)
     for c in prange(_chunks(q.shape[0])):
         start, stop = c * _CHUNK_SAMPLES, min(q.shape[0], (c + 1) * _CHUNK_SAMPLES)
         _inverse_dynamics_rows(K, P, g, q, qd, qdd, use_gravity, out, start, stop)
 
 
 @njit(cache=True, parallel=True)
-def _gravity_parallel(K, P, g, q, out) -> None:
+def _gravity_parallel(dh, J, g, q, out) -> None:
+    """:func:`batch_gravity` with the rows split over numba's thread pool."""
+    K, P = _dh_constants(dh), _inertia_constants(J)
     for c in prange(_chunks(q.shape[0])):
         start, stop = c * _CHUNK_SAMPLES, min(q.shape[0], (c + 1) * _CHUNK_SAMPLES)
         _gravity_rows(K, P, g, q, out, start, stop)
 
 
 @njit(cache=True, parallel=True)
-def _mass_matrix_parallel(K, P, q, out) -> None:
+def _mass_matrix_parallel(dh, J, q, out) -> None:
+    """:func:`batch_mass_matrix` with the rows split over numba's thread pool."""
+    K, P = _dh_constants(dh), _inertia_constants(J)
     for c in prange(_chunks(q.shape[0])):
         start, stop = c * _CHUNK_SAMPLES, min(q.shape[0], (c + 1) * _CHUNK_SAMPLES)
         _mass_matrix_rows(K, P, q, out, start, stop)
 
 
 # ----------------------------------------------------------------------------- kernels (batches)
+# Single-threaded: njit code calls them (the simulator's integrator), and a cached njit function
+# that calls a parallel one crashes when it is loaded from numba's cache in a new process. The
+# fronts below pick the parallel versions for large batches.
 @njit(cache=True)
 def batch_inverse_dynamics(dh, J, g, q, qd, qdd, use_gravity, out):
     """out (M, 7) = τ(q, q̇, q̈) of every row (without G when use_gravity is False); J (7, 4, 4) pseudo-inertias."""
-    K, P = _dh_constants(dh), _inertia_constants(J)
-    if q.shape[0] >= PARALLEL_MIN_SAMPLES:
-        _inverse_dynamics_parallel(K, P, g, q, qd, qdd, use_gravity, out)
-    else:
-        _inverse_dynamics_rows(K, P, g, q, qd, qdd, use_gravity, out, 0, q.shape[0])
+    _inverse_dynamics_rows(_dh_constants(dh), _inertia_constants(J), g, q, qd, qdd, use_gravity, out, 0, q.shape[0])
 
 
 @njit(cache=True)
 def batch_gravity(dh, J, g, q, out):
     """out (M, 7) = G(q) of every row."""
-    K, P = _dh_constants(dh), _inertia_constants(J)
-    if q.shape[0] >= PARALLEL_MIN_SAMPLES:
-        _gravity_parallel(K, P, g, q, out)
-    else:
-        _gravity_rows(K, P, g, q, out, 0, q.shape[0])
+    _gravity_rows(_dh_constants(dh), _inertia_constants(J), g, q, out, 0, q.shape[0])
 
 
 @njit(cache=True)
 def batch_mass_matrix(dh, J, q, out):
     """out (M, 7, 7) = M(q) of every row."""
-    K, P = _dh_constants(dh), _inertia_constants(J)
-    if q.shape[0] >= PARALLEL_MIN_SAMPLES:
-        _mass_matrix_parallel(K, P, q, out)
-    else:
-        _mass_matrix_rows(K, P, q, out, 0, q.shape[0])
+    _mass_matrix_rows(_dh_constants(dh), _inertia_constants(J), q, out, 0, q.shape[0])
 
 
 def inertial_basis() -> np.ndarray:
@@ -781,7 +778,10 @@ def inverse_dynamics(dh, pseudo_inertias, gravity_m_s2, q, qd, qdd) -> np.ndarra
     """τ = M q̈ + C + G (eq. 5), N·m, shape of q; q, qd, qdd (..., 7) in rad, rad/s, rad/s²."""
     (q2, qd2, qdd2), lead = _as_batches(q=q, qd=qd, qdd=qdd)
     out = np.empty_like(q2)
-    batch_inverse_dynamics(dh, pseudo_inertias, gravity_m_s2, q2, qd2, qdd2, True, out)
+    split = len(q2) >= PARALLEL_MIN_SAMPLES
+    (_inverse_dynamics_parallel if split else batch_inverse_dynamics)(
+        dh, pseudo_inertias, gravity_m_s2, q2, qd2, qdd2, True, out
+    )
     return out.reshape(lead + (N,))
 
 
@@ -789,7 +789,10 @@ def coriolis(dh, pseudo_inertias, q, qd) -> np.ndarray:
     """The Coriolis/centrifugal vector C(q, q̇) of eq. (7), N·m, shape of q."""
     (q2, qd2), lead = _as_batches(q=q, qd=qd)
     out = np.empty_like(q2)
-    batch_inverse_dynamics(dh, pseudo_inertias, np.zeros(3), q2, qd2, np.zeros_like(q2), False, out)
+    split = len(q2) >= PARALLEL_MIN_SAMPLES
+    (_inverse_dynamics_parallel if split else batch_inverse_dynamics)(
+        dh, pseudo_inertias, np.zeros(3), q2, qd2, np.zeros_like(q2), False, out
+    )
     return out.reshape(lead + (N,))
 
 
@@ -797,7 +800,7 @@ def gravity(dh, pseudo_inertias, gravity_m_s2, q) -> np.ndarray:
     """G(q) of eq. (8), N·m, shape of q; q (..., 7) rad."""
     q2, lead = _as_batch("q", q)
     out = np.empty_like(q2)
-    batch_gravity(dh, pseudo_inertias, gravity_m_s2, q2, out)
+    (_gravity_parallel if len(q2) >= PARALLEL_MIN_SAMPLES else batch_gravity)(dh, pseudo_inertias, gravity_m_s2, q2, out)
     return out.reshape(lead + (N,))
 
 
@@ -805,7 +808,7 @@ def mass_matrix(dh, pseudo_inertias, q) -> np.ndarray:
     """M(q) of eq. (6), kg·m², (..., 7, 7); q (..., 7) rad."""
     q2, lead = _as_batch("q", q)
     out = np.empty((q2.shape[0], N, N))
-    batch_mass_matrix(dh, pseudo_inertias, q2, out)
+    (_mass_matrix_parallel if len(q2) >= PARALLEL_MIN_SAMPLES else batch_mass_matrix)(dh, pseudo_inertias, q2, out)
     return out.reshape(lead + (N, N))
 
 
