@@ -34,7 +34,7 @@ setup(
     python_requires=">=3.10",
     install_requires=["setuptools"],
     extras_require={
-        "pypi": ros_wheels + ["numpy", "numba", "pyyaml", "pin", "rosbags", "scipy", "matplotlib", "pyarrow"],
+        "pypi": ros_wheels + ["numpy", "numba", "pyyaml", "pin", "cmeel-eigen", "rosbags", "scipy", "matplotlib", "pyarrow"],
         "test": ["pytest", "hypothesis", "colcon-common-extensions", "mcap"],
     },
     zip_safe=True,

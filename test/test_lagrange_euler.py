@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 import pytest
 from reference_models import (
@@ -17,7 +18,7 @@ from reference_models import (
     random_states,
 )
 
-from baxter_dynamics_ros import ArmModel, InputShapeError, load_arm_model
+from baxter_dynamics_ros import ArmModel, InputShapeError, lagrange_euler, load_arm_model
 
 N_STATES = 1000
 RTOL = 1e-9
@@ -280,3 +281,68 @@ def test_accepts_lists_and_integer_arrays() -> None:
 def test_wrong_shapes_raise_input_shape_error(call, match: str) -> None:
     with pytest.raises(InputShapeError, match=match):
         call(load_arm_model("right"))
+
+
+# ----------------------------------------------------------------------------- blocks, lanes and threads
+def _pinocchio_answers(ref: PinocchioArm, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray):
+    """τ, G and M of Pinocchio, sample by sample."""
+    tau = np.array([ref.rnea(a, b, c) for a, b, c in zip(q, qd, qdd)])
+    grav = np.array([ref.gravity(a) for a in q])
+    mass = np.array([ref.mass_matrix(a) for a in q])
+    return tau, grav, mass
+
+
+@pytest.mark.parametrize(
+    "n",
+    [1, lagrange_euler.LANES - 1, lagrange_euler.LANES + 1,
+     lagrange_euler.PARALLEL_MIN_SAMPLES - 1, lagrange_euler.PARALLEL_MIN_SAMPLES + 3 * lagrange_euler.LANES + 5],
+)
+def test_every_batch_size_matches_pinocchio_to_1e12(n: int) -> None:
+    """Partial blocks, the serial path and the path split over threads: all rows to 1e-12 relative."""
+    arm = load_arm_model("right")
+    q, qd, qdd = random_states(arm, n, seed=n, qdd_max_rad_s2=10.0)
+    tau, grav, mass = _pinocchio_answers(pinocchio_from_arm(arm), q, qd, qdd)
+    assert_close(arm.inverse_dynamics(q, qd, qdd), tau, f"tau, {n} samples", rtol=1e-12)
+    assert_close(arm.gravity(q), grav, f"G, {n} samples", rtol=1e-12)
+    assert_close(arm.mass_matrix(q), mass, f"M, {n} samples", rtol=1e-12)
+
+
+def test_threads_change_no_bit_of_the_results() -> None:
+    """A batch past the parallel threshold gives the same bits on one thread and on all of them."""
+    arm = load_arm_model("right")
+    q, qd, qdd = random_states(arm, 2 * lagrange_euler.PARALLEL_MIN_SAMPLES + 7, seed=3, qdd_max_rad_s2=10.0)
+    threads = numba.config.NUMBA_NUM_THREADS
+    results = {}
+    try:
+        for n_threads in (1, threads):
+            numba.set_num_threads(n_threads)
+            results[n_threads] = (arm.inverse_dynamics(q, qd, qdd), arm.gravity(q), arm.mass_matrix(q))
+    finally:
+        numba.set_num_threads(threads)
+    for one, every, what in zip(results[1], results[threads], ("tau", "G", "M")):
+        np.testing.assert_array_equal(one, every, err_msg=what)
+
+
+def test_a_bad_sample_stays_in_its_lane() -> None:
+    """NaN, inf and angles past the sine polynomial's range (libm there) in one block: the other lanes
+    keep their single-sample values, the far angles match Pinocchio, the non-finite rows are NaN."""
+    arm = load_arm_model("right")
+    n = 2 * lagrange_euler.LANES
+    q, qd, qdd = random_states(arm, n, seed=5, qdd_max_rad_s2=10.0)
+    q[3, 2], q[4, 0], qd[5, 6] = np.nan, np.inf, np.nan
+    # Beyond 1e5 rad libm, within it the polynomial; on joints without a θ offset, so that θ = q exactly
+    # (q + offset would round by up to ulp(q), 3e-11 rad at 2.5e5 rad, in both implementations alike).
+    q[6, 2], q[7, 4], q[8, 3] = 2.5e5, -4.0e4, 1.0e6
+    tau, grav, mass = arm.inverse_dynamics(q, qd, qdd), arm.gravity(q), arm.mass_matrix(q)
+    ref = pinocchio_from_arm(arm)
+    good = [i for i in range(n) if i not in (3, 4, 5)]
+    one_by_one = np.array([arm.inverse_dynamics(q[i], qd[i], qdd[i]) for i in good])
+    assert_close(tau[good], one_by_one, "tau of the finite rows, batch vs one by one", rtol=1e-14)
+    far = [6, 7, 8]
+    want_tau, want_grav, want_mass = _pinocchio_answers(ref, q[far], qd[far], qdd[far])
+    assert_close(tau[far], want_tau, "tau at far angles", rtol=1e-12)
+    assert_close(grav[far], want_grav, "G at far angles", rtol=1e-12)
+    assert_close(mass[far], want_mass, "M at far angles", rtol=1e-12)
+    assert np.isnan(tau[[3, 4, 5]]).any(axis=1).all()
+    assert np.isnan(grav[[3, 4]]).any(axis=1).all() and np.isnan(mass[[3, 4]]).any(axis=(1, 2)).all()
+    assert np.isfinite(grav[5]).all() and np.isfinite(mass[5]).all()  # q̇ plays no part in G and M
