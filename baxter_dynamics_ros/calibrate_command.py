@@ -6,9 +6,9 @@ effects of ``--effects`` compensated, removes the slow bias (``--bias-time-const
 per-joint thresholds a + b|q̇| by the calibration rule of that module (``--margin``;
 ``--consecutive`` samples in a row above before a detection; ``--constant`` for b = 0). The
 recordings must be free of contacts: every residual they hold is taken as normal; each must hold
-:data:`~baxter_dynamics_ros.recording.MIN_RECORDING_S` and
-:data:`~baxter_dynamics_ros.recording.MIN_RECORDING_SAMPLES` samples, all of them
-:data:`~baxter_dynamics_ros.recording.MIN_FIT_S` together, and the arm must move and have effort
+:data:`~baxter_dynamics_ros.core.recording.MIN_RECORDING_S` and
+:data:`~baxter_dynamics_ros.core.recording.MIN_RECORDING_SAMPLES` samples, all of them
+:data:`~baxter_dynamics_ros.core.recording.MIN_FIT_S` together, and the arm must move and have effort
 (the readers). Never imports rclpy.
 """
 
@@ -52,7 +52,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _check_paths(files: list[Path], out: Path, force: bool) -> None:
-    from .output_files import check_outputs
+    from .core.output_files import check_outputs
 
     for path in files:
         if not path.exists():
@@ -68,10 +68,10 @@ def run(args: argparse.Namespace) -> int:
     """Calibrate and write args.out; returns 0 (errors raise BaxterDynamicsError)."""
     from msg_adapters.recording_files import read_recording
 
-    from .arm_model import load_arm_model
     from .collision import calibrate, write_thresholds
-    from .compensation import load_compensation
-    from .recording import MIN_FIT_S, require_length
+    from .core.arm_model import load_arm_model
+    from .core.compensation import load_compensation
+    from .core.recording import MIN_FIT_S, require_length
 
     _check_paths(args.files, args.out, args.force)
     recordings = [read_recording(p, topic=args.topic, arm=args.arm, rate_hz=args.rate_hz) for p in args.files]

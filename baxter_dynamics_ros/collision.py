@@ -17,7 +17,7 @@ Discretisation, per sample k with its own Δt_k (backward Euler in r, so stable 
     I_k = I_{k−1} + (β_k − r_k) Δt_k,  β = τ_meas + Cᵀ q̇ − G,  r_k = K_O (I_k − (p_k − p_0))
     ⇒ r_k = K_O (I_{k−1} + β_k Δt_k − (p_k − p_0)) / (1 + K_O Δt_k);  r_0 = 0.
 
-With a :class:`~baxter_dynamics_ros.compensation.Compensation`, the model is its ``arm`` and τ_meas
+With a :class:`~baxter_dynamics_ros.core.compensation.Compensation`, the model is its ``arm`` and τ_meas
 has the additive effects' share at q̈ = 0 removed (q̈-dependent shares, armature, are not).
 
 Effort–state alignment: the recorded effort and joint state need not belong to the same instant.
@@ -73,13 +73,13 @@ import numpy as np
 import yaml
 from numba import njit
 
-from . import lagrange_euler
-from .arm_model import ArmModel
-from .compensation import Compensation
+from .core import lagrange_euler
+from .core.arm_model import ArmModel
+from .core.compensation import Compensation
+from .core.output_files import staged_outputs
+from .core.recording import JOINT_SUFFIXES, Recording
+from .core.yaml_files import read_yaml
 from .errors import CollisionError
-from .output_files import staged_outputs
-from .recording import JOINT_SUFFIXES, Recording
-from .yaml_files import read_yaml
 
 __all__ = [
     "DEFAULT_BIAS_TIME_CONSTANT_S",

@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .arm_model import load_arm_model
+from .core.arm_model import load_arm_model
 from .ros_env import isolated_ros_env
 
 EFFECTS = {
@@ -67,7 +67,7 @@ def simulate_recordings(out: Path) -> dict[str, Path]:
     """Step 2: the simulated recordings (mcap bags with Baxter's joint names)."""
     from msg_adapters.recording_files import write_joint_states
 
-    from .effects import effects_from_dict
+    from .core.effects import effects_from_dict
     from .simulator import SensorModel, SimulationSpec, simulate, write_ground_truth
 
     _say(f"\n2. Simulating {len(RECORDINGS)} recordings of {DURATION_S:g} s with effects the model lacks: {', '.join(EFFECTS)}")
@@ -153,7 +153,7 @@ def process_and_plot(bag: Path, out: Path) -> Path:
     """Step 4: ``process`` the bag and plot measured against modelled torques."""
     from msg_adapters.recording_files import read_recording, write_processed
 
-    from .processing import process_recording
+    from .core.processing import process_recording
 
     _say("\n4. Offline: baxter-dynamics process (zero-phase q̈) and a plot")
     recording = read_recording(bag)

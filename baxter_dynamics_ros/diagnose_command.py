@@ -4,9 +4,9 @@ Parameters are fitted on ``--train`` only; every "after" figure is measured on `
 ``--test``, the last training file is held out (or, with a single file, its last quarter: whole
 contiguous blocks, never interleaved samples). Refused: a recording given twice (the same file, or
 the same samples, in ``--train`` and ``--test`` or twice in ``--train``); a recording shorter than
-:data:`~baxter_dynamics_ros.recording.MIN_RECORDING_S` or with fewer than
-:data:`~baxter_dynamics_ros.recording.MIN_RECORDING_SAMPLES` samples; training data shorter than
-:data:`~baxter_dynamics_ros.recording.MIN_FIT_S` in all; an arm that does not move or has no effort
+:data:`~baxter_dynamics_ros.core.recording.MIN_RECORDING_S` or with fewer than
+:data:`~baxter_dynamics_ros.core.recording.MIN_RECORDING_SAMPLES` samples; training data shorter than
+:data:`~baxter_dynamics_ros.core.recording.MIN_FIT_S` in all; an arm that does not move or has no effort
 (the readers). Writes ``DIR/diagnosis.json``, ``DIR/report.html``
 with its PNG plots and ``DIR/effects.yaml`` (for the node's ``effects_file``). Never imports rclpy.
 """
@@ -38,8 +38,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _check_paths(inputs: list[Path], out: Path, force: bool) -> None:
+    from .core.output_files import check_outputs
     from .diagnosis_report import OUTPUT_FILES
-    from .output_files import check_outputs
 
     for path in inputs:
         if not path.exists():
@@ -55,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
     """Diagnose and write the outputs; returns 0 (errors raise BaxterDynamicsError)."""
     from msg_adapters.recording_files import read_recording
 
-    from .arm_model import load_arm_model
+    from .core.arm_model import load_arm_model
     from .diagnosis import diagnose
     from .diagnosis_report import write_diagnosis
     from .progress import ProgressBar
@@ -122,7 +122,7 @@ def _fingerprint(rec) -> str:
 
 
 def _split_last_quarter(label, rec):
-    from .recording import MIN_RECORDING_S, MIN_RECORDING_SAMPLES, Recording
+    from .core.recording import MIN_RECORDING_S, MIN_RECORDING_SAMPLES, Recording
 
     n = len(rec)
     cut = (3 * n) // 4

@@ -36,11 +36,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .arm_model import ArmModel, pseudo_inertia
-from .diagnosis_fit import Fit, Fitter, Model, Term
-from .diagnosis_selection import MIN_JOINT_GAIN, MIN_JOINT_GAIN_NM, Evaluation, select
-from .diagnosis_statistics import N, Block, Candidate, ColumnLayout, Pool, active_columns, choose_cutoff, column_layout, prepare, recording_blocks, default_groups, regressor
-from .effects import (
+from .core.arm_model import ArmModel, pseudo_inertia
+from .core.effects import (
     EFFECTS,
     Armature,
     CoulombFriction,
@@ -53,10 +50,26 @@ from .effects import (
     TorqueOffset,
     ViscousFriction,
 )
+from .core.log_cholesky import pseudo_from_log_cholesky
+from .core.recording import MIN_FIT_S, Recording, require_length
+from .diagnosis_fit import Fit, Fitter, Model, Term
+from .diagnosis_selection import MIN_JOINT_GAIN, MIN_JOINT_GAIN_NM, Evaluation, select
+from .diagnosis_statistics import (
+    Block,
+    Candidate,
+    ColumnLayout,
+    N,
+    Pool,
+    active_columns,
+    choose_cutoff,
+    column_layout,
+    default_groups,
+    prepare,
+    recording_blocks,
+    regressor,
+)
 from .errors import DiagnosisError, RecordingError
 from .gap_analysis import GapSummary, summarise_gap
-from .log_cholesky import pseudo_from_log_cholesky
-from .recording import MIN_FIT_S, Recording, require_length
 
 __all__ = ["CANDIDATE_NAMES", "STABLE_FRACTION", "DiagnosisResult", "EffectReport", "diagnose"]
 
@@ -341,7 +354,7 @@ def diagnose(
     """Diagnose the gap of ``arm``'s rigid model on recordings: fit on ``train``, measure on ``test``.
 
     train, test: (label, Recording) pairs of the arm's side, each at least
-    :data:`~baxter_dynamics_ros.recording.MIN_RECORDING_SAMPLES` samples and ``MIN_RECORDING_S``
+    :data:`~baxter_dynamics_ros.core.recording.MIN_RECORDING_SAMPLES` samples and ``MIN_RECORDING_S``
     long, the training ones ``MIN_FIT_S`` together. Cross-validation leaves one training recording out; with a
     single one, one of its four contiguous blocks.
     """
@@ -677,7 +690,7 @@ def _test_gap(ctx: _Context, test: Sequence[tuple[str, Recording]], cutoff: floa
         finals.append(p.residual - explained)
         times.append(p.stamps_s + offset)
         offset = times[-1][-1] + 1.0 / rec.rate_hz
-        from .acceleration import zero_phase_acceleration
+        from .core.acceleration import zero_phase_acceleration
 
         states.append((rec.q, rec.qd, zero_phase_acceleration(rec.qd, rec.rate_hz, min(5.0, 0.4 * rec.rate_hz))))
     cat = np.concatenate

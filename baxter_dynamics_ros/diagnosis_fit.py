@@ -12,7 +12,7 @@ one sample's information between them), so the prior weighs like one effective o
 
 Linear kinds are solved as bounded linear least squares (friction, armature ≥ 0). Inertial kinds
 (``payload``, ``inertial_error``) are fitted *inside the physical set*: each link's pseudo-inertia is
-written in log-Cholesky coordinates φ (:mod:`~baxter_dynamics_ros.log_cholesky`), so it stays
+written in log-Cholesky coordinates φ (:mod:`~baxter_dynamics_ros.core.log_cholesky`), so it stays
 positive definite whatever the data say; its mass and centre of mass are box bounds on φ (``MASS_RANGE``
 and ``COM_BOX_M`` about the paper's values; the payload's in ``PAYLOAD_MASS_KG`` and
 ``PAYLOAD_COM_BOX_M`` at the flange); and a Gaussian prior on φ about the paper's values pulls the
@@ -37,10 +37,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import lsq_linear
 
-from .arm_model import ArmModel, pseudo_inertia
-from .diagnosis_statistics import Candidate, ColumnLayout, N, Pool, S1
+from .core.arm_model import ArmModel, pseudo_inertia
+from .core.log_cholesky import contraction_hessian, log_cholesky_from_pseudo, parameters_from_log_cholesky
+from .diagnosis_statistics import S1, Candidate, ColumnLayout, N, Pool
 from .errors import DiagnosisError
-from .log_cholesky import contraction_hessian, log_cholesky_from_pseudo, parameters_from_log_cholesky
 
 __all__ = ["DECORRELATION_S", "Fit", "Fitter", "Model", "Term"]
 

@@ -20,9 +20,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .acceleration import first_difference, zero_phase_acceleration
-from .arm_model import ArmModel
-from .effects import (
+from .core.acceleration import first_difference, zero_phase_acceleration
+from .core.arm_model import ArmModel
+from .core.effects import (
     Armature,
     CoulombFriction,
     Delay,
@@ -33,7 +33,7 @@ from .effects import (
     TorqueOffset,
     ViscousFriction,
 )
-from .recording import JOINT_SUFFIXES, Recording
+from .core.recording import JOINT_SUFFIXES, Recording
 
 __all__ = [
     "Block",
@@ -62,7 +62,7 @@ class Candidate:
     kind: "joint" — p_joint parameters per joint, each acting on its own joint only (column
     ``columns[k * 7 + j]`` is parameter k at joint j); "linear" — a fixed set of columns (the s1
     spring); "inertial" — inertial parameters of whole links, fitted through the log-Cholesky
-    parametrisation (:mod:`baxter_dynamics_ros.log_cholesky`), ``links`` the link indices.
+    parametrisation (:mod:`baxter_dynamics_ros.core.log_cholesky`), ``links`` the link indices.
     lower: (p,) lower bounds of the linear kinds' parameters.
     """
 
@@ -98,7 +98,7 @@ class ColumnLayout:
 
 
 def column_layout() -> ColumnLayout:
-    """The candidates of the diagnosis, in the order of :data:`~baxter_dynamics_ros.effects.EFFECTS`."""
+    """The candidates of the diagnosis, in the order of :data:`~baxter_dynamics_ros.core.effects.EFFECTS`."""
     zero, free = 0.0, -np.inf
     specs: list[tuple[str, str, str, Effect, int, float]] = [
         ("torque_offset", "", "joint", TorqueOffset(offset_nm=0.0), 1, free),
@@ -125,7 +125,7 @@ def column_layout() -> ColumnLayout:
         blocks.append((template, start, width))
         start += width
     # The payload: a change of link 7's inertial parameters, the last 10 of inertial_error's columns.
-    from .effects import Payload
+    from .core.effects import Payload
 
     payload = Candidate("payload", "", "inertial", Payload(mass_kg=1.0), np.arange(inertial_start + 60, inertial_start + 70), np.full(10, free), links=(N - 1,))
     index = [c.name for c in candidates].index("inertial_error")

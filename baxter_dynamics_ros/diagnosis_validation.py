@@ -34,10 +34,10 @@ from typing import Any
 
 import numpy as np
 
-from .arm_model import ArmModel, load_arm_model
+from .core.arm_model import ArmModel, load_arm_model
+from .core.effects import effects_from_dict
+from .core.recording import Recording
 from .diagnosis import CANDIDATE_NAMES, DiagnosisResult, diagnose
-from .effects import effects_from_dict
-from .recording import Recording
 from .simulator import SensorModel, SimulationSpec, simulate
 
 __all__ = ["SCENARIOS", "Scenario", "ScenarioOutcome", "confusion_markdown", "main", "run_scenario", "write_validation_page"]
@@ -230,7 +230,7 @@ def _clean_test(runs: tuple[tuple[str, int], ...], rate_hz: float, sensor: Senso
 
 def rigid_mse(recordings) -> float:
     """Held-out squared error per sample of the rigid model with the paper's q̈, summed over joints."""
-    from .acceleration import first_difference
+    from .core.acceleration import first_difference
 
     arm = _arm()
     total, n = 0.0, 0

@@ -98,11 +98,10 @@ from std_srvs.srv import SetBool, Trigger
 
 from msg_adapters.joint_state import ArmJointStateWriter, JointStateReader, diagnostic_array
 
-from .arm_model import load_arm_model
-from .collision import read_thresholds
-from .collision import observe_arrays
+from .collision import observe_arrays, read_thresholds
 from .collision_monitor import CollisionMonitor
-from .compensation import load_compensation
+from .core.arm_model import load_arm_model
+from .core.compensation import load_compensation
 from .errors import BaxterDynamicsError, CollisionError, SettingsError
 from .node_settings import NodeSettings
 from .residuals import SKIP_DESCRIPTIONS, HealthMonitor, ResetCause, ResidualPipeline, SkipReason

@@ -20,7 +20,7 @@ from .errors import SettingsError
 
 __all__ = ["ESTIMATORS", "NodeSettings"]
 
-#: Causal q̈ estimators the live node offers (see :mod:`baxter_dynamics_ros.acceleration`).
+#: Causal q̈ estimators the live node offers (see :mod:`baxter_dynamics_ros.core.acceleration`).
 ESTIMATORS = ("lowpass", "first_difference")
 
 

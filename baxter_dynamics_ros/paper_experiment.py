@@ -4,7 +4,7 @@
 through the paper's three trajectories (:mod:`baxter_dynamics_ros.trajectories`), records at
 50 Hz like the paper, estimates q̈ by first differences of q̇ (dt = 0.02 s, as the paper did), and
 compares the torques of the Lagrange-Euler core and of Pinocchio's RNEA (built from the same
-parameters, :mod:`baxter_dynamics_ros.pinocchio_model`) with the recorded ones. It writes into DIR:
+parameters, :mod:`baxter_dynamics_ros.core.pinocchio_model`) with the recorded ones. It writes into DIR:
 
 - ``table_v.md``: Table V (|ē| = |mean error| per joint and set, L-E and RN-E) and the error
   spread (mean |e|, RMS, RMS with a zero-phase 5 Hz q̈) — all measured here;
@@ -32,10 +32,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .acceleration import first_difference, zero_phase_acceleration
-from .arm_model import ArmModel, load_arm_model
-from .effects import S1Spring, effects_from_dict
-from .output_files import check_outputs, staged_outputs
+from .core.acceleration import first_difference, zero_phase_acceleration
+from .core.arm_model import ArmModel, load_arm_model
+from .core.effects import S1Spring, effects_from_dict
+from .core.output_files import check_outputs, staged_outputs
 from .simulator import SensorModel, SimulationResult, SimulationSpec, simulate, write_ground_truth
 
 __all__ = ["EFFECTS", "PAPER_TABLE_V", "PAPER_TABLE_V_SUM", "SENSOR", "SetResult", "run_experiment"]
@@ -109,7 +109,7 @@ class SetResult:
 
 def run_set(arm: ArmModel, pin_model, number: int, trajectory: str, figure: int, duration_s: float, seed: int) -> SetResult:
     """Simulate one trajectory at 50 Hz and compute the paper's comparison."""
-    from .pinocchio_model import rnea
+    from .core.pinocchio_model import rnea
 
     spec = SimulationSpec(
         trajectory=trajectory, duration_s=duration_s, rate_hz=RATE_HZ, seed=seed, side=arm.side, effects=EFFECTS, sensor=SENSOR
@@ -133,7 +133,7 @@ def run_set(arm: ArmModel, pin_model, number: int, trajectory: str, figure: int,
 
 def run_experiment(duration_s: float = DURATION_S, seed: int = 0, arm: ArmModel | None = None) -> list[SetResult]:
     """The three sets on the right arm (set k uses seed + k − 1)."""
-    from .pinocchio_model import pinocchio_from_arm
+    from .core.pinocchio_model import pinocchio_from_arm
 
     arm = load_arm_model("right") if arm is None else arm
     pin_model = pinocchio_from_arm(arm)

@@ -22,11 +22,11 @@ into G(q), τ and the residual, or into a :class:`SkipReason` (the message reade
    (a jump of the positions) skips the sample as ``implausible_input`` and differences the next
    one from it;
 5. q̈_k from the causal estimator on q̇ with Δt_k = t_k − t_{k−1} taken from the stamps:
-   ``lowpass`` (:class:`~baxter_dynamics_ros.acceleration.LowPassDifferentiator`, −3 dB at
+   ``lowpass`` (:class:`~baxter_dynamics_ros.core.acceleration.LowPassDifferentiator`, −3 dB at
    ``cutoff_hz``) or ``first_difference`` (the paper's raw difference); q̈ = 0 on the first sample
    after a (re)start;
 6. τ = M(q) q̈ + C(q, q̇) + G(q) (eq. 1) and G(q) = τ(q, 0, 0) from one call of the compiled core;
-   with an effects file, of the compensated model (:mod:`baxter_dynamics_ros.compensation`: the
+   with an effects file, of the compensated model (:mod:`baxter_dynamics_ros.core.compensation`: the
    inertial effects in M, C, G, the others' share of the effort added to τ);
    if either holds NaN/inf, or q̈, the residual or r does, the estimator and the observer (whose
    states hold the same values) are reset, the sample skipped (``non_finite_model``) and the reset
@@ -58,11 +58,11 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from . import lagrange_euler
-from .acceleration import FirstDifference, LowPassDifferentiator
-from .arm_model import ArmModel
 from .collision import DEFAULT_GAIN_1_S, MomentumObserver
-from .compensation import Compensation
+from .core import lagrange_euler
+from .core.acceleration import FirstDifference, LowPassDifferentiator
+from .core.arm_model import ArmModel
+from .core.compensation import Compensation
 from .errors import CollisionError, SettingsError
 from .node_settings import ESTIMATORS
 

@@ -4,12 +4,12 @@ Writes ``/robot/joint_states`` as the robot publishes it (Baxter's 21 joints wit
 moving, the rest still) to ``--out``: a ``.mcap`` ROS 2 bag or a ``.csv`` / ``.parquet`` table
 (the generic layout of :mod:`msg_adapters.csv_io`), and the ground truth beside it as
 ``<out>.truth.json`` (spec, effects with parameters, seed, tracking): both or neither
-(:mod:`baxter_dynamics_ros.output_files`).
+(:mod:`baxter_dynamics_ros.core.output_files`).
 
 The effects spec (``--effects``) is a YAML file with up to four sections; see
 ``config/effects_example.yaml``::
 
-    effects:      # name: {parameter: value}; names and parameters in baxter_dynamics_ros.effects
+    effects:      # name: {parameter: value}; names and parameters in baxter_dynamics_ros.core.effects
       s1_spring: {}                              # Baxter-like defaults
       viscous_friction: {damping_nm_s_rad: {s1: 1.0, e1: 0.5}}
       acceleration_noise: {velocity_noise_rad_s: 0.01}
@@ -57,7 +57,7 @@ def ground_truth_path(out: Path) -> Path:
 def load_spec(path: Path | None) -> dict:
     """The simulation settings of an effects spec file (None: the rigid-body arm, no collisions), as
     :class:`~baxter_dynamics_ros.simulator.SimulationSpec` arguments: effects, sensor, controller, collisions."""
-    from .effects import effects_from_dict, read_spec_file
+    from .core.effects import effects_from_dict, read_spec_file
     from .simulator import ControllerGains, SensorModel
 
     raw = {} if path is None else read_spec_file(path)
@@ -86,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
     """Simulate args into args.out and its ground truth; returns 0 (errors raise BaxterDynamicsError)."""
     from msg_adapters.recording_files import check_output, write_joint_states
 
-    from .output_files import check_outputs, staged_outputs
+    from .core.output_files import check_outputs, staged_outputs
     from .simulator import SimulationSpec, simulate, write_ground_truth
 
     truth = ground_truth_path(args.out)

@@ -1,13 +1,13 @@
 """A simulated Baxter arm with switchable unmodelled effects, recorded as the robot publishes it.
 
-The plant is the core's rigid-body model (:mod:`baxter_dynamics_ros.lagrange_euler`) with the
+The plant is the core's rigid-body model (:mod:`baxter_dynamics_ros.core.lagrange_euler`) with the
 physical effects of a :class:`SimulationSpec` acting on it:
 
     (M_true(q) + diag(armature)) q̈ = τ_act − C_true(q, q̇) − G_true(q) − τ_friction(q̇) − τ_spring_share(q_s1)
 
 M_true, C_true, G_true use the arm's pseudo-inertias plus the changes of ``payload`` and
 ``inertial_error``; τ_friction sums ``viscous_friction``, ``coulomb_friction`` and
-``stribeck_friction``; the spring's share is :class:`~baxter_dynamics_ros.effects.S1Spring`'s
+``stribeck_friction``; the spring's share is :class:`~baxter_dynamics_ros.core.effects.S1Spring`'s
 (the spring carries part of the weight, so the actuators transmit less). Integration: fixed-step
 RK4 at ``physics_rate_hz`` (default: the smallest multiple of the recording rate ≥ 1 kHz), τ_act
 held over each step.
@@ -54,9 +54,9 @@ from typing import Any, ClassVar, NamedTuple
 import numpy as np
 from numba import njit
 
-from . import lagrange_euler
-from .arm_model import ArmModel, load_arm_model
-from .effects import (
+from .core import lagrange_euler
+from .core.arm_model import ArmModel, load_arm_model
+from .core.effects import (
     AccelerationNoise,
     Armature,
     CoulombFriction,
@@ -72,8 +72,8 @@ from .effects import (
     friction_law,
     s1_spring_law,
 )
+from .core.recording import Recording
 from .errors import EffectSpecError, SimulationError
-from .recording import Recording
 from .trajectories import TRAJECTORIES, JointReference, make_reference, seed_posture
 
 __all__ = [
@@ -380,7 +380,7 @@ class SimulationResult:
     tau_external: np.ndarray
 
     def recording(self) -> Recording:
-        """The simulated arm's joint states as a :class:`~baxter_dynamics_ros.recording.Recording`."""
+        """The simulated arm's joint states as a :class:`~baxter_dynamics_ros.core.recording.Recording`."""
         return Recording(self.spec.side, self.joint_names, self.stamps_ns, self.q, self.qd, self.effort)
 
     def robot_joint_states(self) -> RobotJointStates:

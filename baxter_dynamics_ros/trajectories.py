@@ -32,8 +32,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from . import lagrange_euler
-from .arm_model import ArmModel
+from .core import lagrange_euler
+from .core.arm_model import ArmModel
 from .errors import SimulationError
 
 __all__ = ["SEED_POSTURE_RAD", "TRAJECTORIES", "JointReference", "cartesian_target", "make_reference", "mirror_joints", "seed_posture"]

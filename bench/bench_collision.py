@@ -43,12 +43,23 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from baxter_dynamics_ros import load_arm_model
-from baxter_dynamics_ros.arm_model import ArmModel
-from baxter_dynamics_ros.collision import DEFAULT_CONSECUTIVE, DEFAULT_GAIN_1_S, DEFAULT_MARGIN, Thresholds
-from baxter_dynamics_ros.collision import CollisionDetector, calibrate, detect, observe, public_detector, public_residual, without_bias
-from baxter_dynamics_ros.compensation import Compensation
-from baxter_dynamics_ros.effects import effects_from_dict
-from baxter_dynamics_ros.recording import Recording
+from baxter_dynamics_ros.collision import (
+    DEFAULT_CONSECUTIVE,
+    DEFAULT_GAIN_1_S,
+    DEFAULT_MARGIN,
+    CollisionDetector,
+    Thresholds,
+    calibrate,
+    detect,
+    observe,
+    public_detector,
+    public_residual,
+    without_bias,
+)
+from baxter_dynamics_ros.core.arm_model import ArmModel
+from baxter_dynamics_ros.core.compensation import Compensation
+from baxter_dynamics_ros.core.effects import effects_from_dict
+from baxter_dynamics_ros.core.recording import Recording
 from baxter_dynamics_ros.simulator import Collision, SensorModel, SimulationSpec, external_torques, simulate
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "baxter_real"

@@ -20,9 +20,9 @@ import time
 import numpy as np
 
 from baxter_dynamics_ros import load_arm_model
-from baxter_dynamics_ros.acceleration import first_difference
+from baxter_dynamics_ros.core.acceleration import first_difference
+from baxter_dynamics_ros.core.effects import effects_from_dict
 from baxter_dynamics_ros.diagnosis import diagnose
-from baxter_dynamics_ros.effects import effects_from_dict
 from baxter_dynamics_ros.simulator import SensorModel, SimulationSpec, simulate
 
 GOAL_S = 60.0

@@ -25,7 +25,8 @@ import numpy as np
 import pinocchio as pin
 from numba import njit, prange
 
-from baxter_dynamics_ros import lagrange_euler, load_arm_model
+from baxter_dynamics_ros import load_arm_model
+from baxter_dynamics_ros.core import lagrange_euler
 
 from . import pinocchio_anchor
 

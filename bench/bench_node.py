@@ -121,8 +121,8 @@ class Bench:
 
     def __init__(self) -> None:
         import rclpy
-        from rclpy.executors import SingleThreadedExecutor
         from diagnostic_msgs.msg import DiagnosticArray
+        from rclpy.executors import SingleThreadedExecutor
         from sensor_msgs.msg import JointState
 
         rclpy.init()

@@ -6,7 +6,7 @@
 //   STATES  float64 binary: q, qd, qdd, each (N, 7), one after the other (rad, rad/s, rad/s²)
 //   OUT     float64 binary written here: tau (N, 7), M (N, 7, 7) symmetrised, G (N, 7)
 // Prints "rnea", "crba" and "gravity" with the best of REPEATS timed passes over the N states, in
-// µs per sample. The model is built as baxter_dynamics_ros/pinocchio_model.py builds it.
+// µs per sample. The model is built as baxter_dynamics_ros/core/pinocchio_model.py builds it.
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>

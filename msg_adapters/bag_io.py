@@ -24,9 +24,9 @@ from pathlib import Path
 import numpy as np
 from rosbags.highlevel import AnyReader
 
+from baxter_dynamics_ros.core.processing import ProcessedRecording
+from baxter_dynamics_ros.core.recording import ARM_SIDES, OtherArm, Recording, arm_joint_names, detect_arm, require_activity
 from baxter_dynamics_ros.errors import RecordingFileError
-from baxter_dynamics_ros.processing import ProcessedRecording
-from baxter_dynamics_ros.recording import ARM_SIDES, OtherArm, Recording, arm_joint_names, detect_arm, require_activity
 
 from .mcap_writer import write_mcap
 from .serialized_joint_states import (
@@ -151,8 +151,8 @@ def read_bag_recording(
     """The recording of one arm from the joint states on ``topic`` of a bag.
 
     arm: "right" or "left"; None detects it from the joint names (when both arms are recorded,
-    the one that moves more; see :func:`~baxter_dynamics_ros.recording.detect_arm`). Refuses an
-    arm that does not move or has no effort (:func:`~baxter_dynamics_ros.recording.require_activity`).
+    the one that moves more; see :func:`~baxter_dynamics_ros.core.recording.detect_arm`). Refuses an
+    arm that does not move or has no effort (:func:`~baxter_dynamics_ros.core.recording.require_activity`).
     progress: called as progress(messages read, total) while reading.
     """
     path = Path(path)

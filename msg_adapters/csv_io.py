@@ -15,7 +15,7 @@ columns (the one that moves more if both do), unless given. Tables of other data
 arm (``ang_s0``, ``position_s0``): they are read for the arm given (``--arm``), and refused without.
 
 Without a time column, samples are evenly spaced at the rate given (``--rate-hz``) or estimated from
-the data (:func:`~baxter_dynamics_ros.recording.estimate_rate_hz`: least squares of Δq on q̇ Δt);
+the data (:func:`~baxter_dynamics_ros.core.recording.estimate_rate_hz`: least squares of Δq on q̇ Δt);
 without a given rate the estimate is used and said, and a given rate more than
 :data:`RATE_TOLERANCE` away from the estimate is refused.
 
@@ -32,9 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
-from baxter_dynamics_ros.errors import RecordingFileError
-from baxter_dynamics_ros.processing import ProcessedRecording
-from baxter_dynamics_ros.recording import (
+from baxter_dynamics_ros.core.processing import ProcessedRecording
+from baxter_dynamics_ros.core.recording import (
     ARM_SIDES,
     JOINT_SUFFIXES,
     OtherArm,
@@ -44,6 +43,7 @@ from baxter_dynamics_ros.recording import (
     estimate_rate_hz,
     require_activity,
 )
+from baxter_dynamics_ros.errors import RecordingFileError
 
 __all__ = ["RATE_TOLERANCE", "Note", "joint_state_columns", "read_table_recording", "write_processed_table", "write_table"]
 
@@ -136,7 +136,7 @@ def _sample_times_ns(
     path: Path, columns: dict[str, np.ndarray], q: np.ndarray, qd: np.ndarray, rate_hz: float | None, note: Note | None
 ) -> np.ndarray:
     """(N,) stamps: the time column, or samples 1 / rate evenly apart, the rate checked against (or,
-    without ``rate_hz``, taken from) :func:`~baxter_dynamics_ros.recording.estimate_rate_hz`."""
+    without ``rate_hz``, taken from) :func:`~baxter_dynamics_ros.core.recording.estimate_rate_hz`."""
     if "stamp_ns" in columns:
         return np.asarray(columns["stamp_ns"], dtype=np.int64)
     if "time_s" in columns:
@@ -173,7 +173,7 @@ def read_table_recording(
     arm: "right" or "left", None to detect it from the column names (a table whose columns name no
     arm needs it); rate_hz: the sample rate of a table without a time column, Hz, None to estimate
     it (said through ``note``, a one-line message). Refuses an arm that does not move or has no
-    effort (:func:`~baxter_dynamics_ros.recording.require_activity`).
+    effort (:func:`~baxter_dynamics_ros.core.recording.require_activity`).
     """
     path = Path(path)
     columns = _read_columns(path)

@@ -8,7 +8,7 @@ Outputs, by the path's extension:
 - ``.mcap``: one mcap file holding a ROS 2 bag (readable by rosbags, ``ros2 bag`` and Foxglove);
 - ``.csv`` / ``.parquet``: a table.
 
-Output is written whole or not at all (:mod:`baxter_dynamics_ros.output_files`): into a temporary
+Output is written whole or not at all (:mod:`baxter_dynamics_ros.core.output_files`): into a temporary
 folder beside its destination, renamed into place at the end, so a failure leaves nothing partial
 behind (and an existing output, replaced only on success).
 """
@@ -22,10 +22,10 @@ from pathlib import Path
 
 import numpy as np
 
+from baxter_dynamics_ros.core.output_files import check_outputs, staged_outputs
+from baxter_dynamics_ros.core.processing import ProcessedRecording
+from baxter_dynamics_ros.core.recording import Recording
 from baxter_dynamics_ros.errors import RecordingError, RecordingFileError
-from baxter_dynamics_ros.output_files import check_outputs, staged_outputs
-from baxter_dynamics_ros.processing import ProcessedRecording
-from baxter_dynamics_ros.recording import Recording
 
 from .bag_io import DEFAULT_TOPIC, Progress, read_bag_recording, write_joint_state_bag, write_processed_bag
 from .csv_io import Note, joint_state_columns, read_table_recording, write_processed_table, write_table
@@ -69,7 +69,7 @@ def read_recording(
 def check_output(path: str | os.PathLike[str], replace: bool = False) -> str:
     """The format :func:`write_processed` would write at ``path``, once checked that it may.
 
-    Refuses an unknown extension, then what :func:`~baxter_dynamics_ros.output_files.check_outputs`
+    Refuses an unknown extension, then what :func:`~baxter_dynamics_ros.core.output_files.check_outputs`
     refuses (a missing folder, a folder in the way, an existing file unless ``replace``, a folder
     the user may not write).
     """

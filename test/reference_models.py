@@ -17,7 +17,8 @@ import numpy as np
 import pinocchio as pin
 import yaml
 
-from baxter_dynamics_ros import ArmModel, pinocchio_model
+from baxter_dynamics_ros import ArmModel
+from baxter_dynamics_ros.core import pinocchio_model
 
 N = 7
 URDF_PATH = Path(__file__).resolve().parents[2] / "shared" / "reference" / "baxter.urdf"
@@ -108,7 +109,7 @@ class PinocchioArm:
 
 
 def pinocchio_from_arm(arm: ArmModel) -> PinocchioArm:
-    """The package's Pinocchio model of the arm (:func:`baxter_dynamics_ros.pinocchio_model.pinocchio_from_arm`:
+    """The package's Pinocchio model of the arm (:func:`baxter_dynamics_ros.core.pinocchio_model.pinocchio_from_arm`:
     7 revolute-z joints from the DH table, link i attached at X_i), its flange frame = DH frame 7."""
     model = pinocchio_model.pinocchio_from_arm(arm)
     return PinocchioArm(model, model.createData(), np.arange(N), pin.SE3.Identity(), model.getFrameId("flange"))

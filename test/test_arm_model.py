@@ -12,7 +12,7 @@ import pytest
 import yaml
 
 from baxter_dynamics_ros import LinkInertial, ModelFileError, load_arm_model
-from baxter_dynamics_ros.arm_model import config_dir, pseudo_inertia
+from baxter_dynamics_ros.core.arm_model import config_dir, pseudo_inertia
 
 
 def real_model() -> dict[str, Any]:

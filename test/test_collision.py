@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import pytest
+from reference_models import pinocchio_from_arm, random_states
 
 from baxter_dynamics_ros import load_arm_model
-from baxter_dynamics_ros.arm_model import ArmModel
 from baxter_dynamics_ros.cli import main
 from baxter_dynamics_ros.collision import (
     DEFAULT_BIAS_TIME_CONSTANT_S,
@@ -33,8 +33,9 @@ from baxter_dynamics_ros.collision import (
     without_bias,
     write_thresholds,
 )
-from baxter_dynamics_ros.compensation import Compensation
-from baxter_dynamics_ros.effects import effects_from_dict
+from baxter_dynamics_ros.core.arm_model import ArmModel
+from baxter_dynamics_ros.core.compensation import Compensation
+from baxter_dynamics_ros.core.effects import effects_from_dict
 from baxter_dynamics_ros.errors import CollisionError, EffectSpecError
 from baxter_dynamics_ros.simulator import (
     Collision,
@@ -46,8 +47,6 @@ from baxter_dynamics_ros.simulator import (
     write_ground_truth,
 )
 from msg_adapters.recording_files import read_recording, write_joint_states
-
-from reference_models import pinocchio_from_arm, random_states
 
 EXACT = SensorModel(position_step_rad=0.0, effort_step_nm=0.0)
 GAIN = 30.0

@@ -16,15 +16,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from reference_models import pinocchio_from_arm
 from scipy.signal import butter, sosfiltfilt
 
 from baxter_dynamics_ros import load_arm_model
+from baxter_dynamics_ros.core.effects import Delay, InertialError, Payload, effects_from_dict, load_effects
 from baxter_dynamics_ros.diagnosis import CANDIDATE_NAMES, diagnose
 from baxter_dynamics_ros.diagnosis_fit import COM_BOX_M, MASS_RANGE, PAYLOAD_COM_BOX_M, PAYLOAD_MASS_KG
 from baxter_dynamics_ros.diagnosis_report import effects_yaml
 from baxter_dynamics_ros.diagnosis_validation import HARD, NO_OP_NM, REQUIRED_SHRINK, SCENARIOS, Scenario, _single, rigid_mse, run_scenario
-from baxter_dynamics_ros.effects import Delay, InertialError, Payload, effects_from_dict, load_effects
-from reference_models import pinocchio_from_arm
 
 REAL = Path(__file__).resolve().parent.parent.parent / "shared" / "data" / "baxter_real"
 REAL_FILES = sorted(REAL.glob("*.csv"))
@@ -202,7 +202,7 @@ def test_uncertain_selection_is_marked() -> None:
 def test_rigid_reference_is_the_raw_world() -> None:
     """The shrink's baseline: the rigid model with the paper's q̈ on the clean test recordings is
     what the simulator's sensor noise alone leaves (a sanity check of the judge)."""
-    from baxter_dynamics_ros.diagnosis_validation import _clean_test, SENSOR, TEST, RATE_HZ
+    from baxter_dynamics_ros.diagnosis_validation import RATE_HZ, SENSOR, TEST, _clean_test
 
     clean = _clean_test(TEST, RATE_HZ, SENSOR)
     assert 0.0 < rigid_mse(clean) < 7 * 0.5**2

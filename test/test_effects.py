@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from baxter_dynamics_ros import load_arm_model
-from baxter_dynamics_ros.acceleration import zero_phase_acceleration
-from baxter_dynamics_ros.arm_model import ArmModel
-from baxter_dynamics_ros.effects import (
+from baxter_dynamics_ros.core.acceleration import zero_phase_acceleration
+from baxter_dynamics_ros.core.arm_model import ArmModel
+from baxter_dynamics_ros.core.effects import (
     EFFECTS,
     AccelerationNoise,
     Armature,

@@ -21,10 +21,10 @@ from recorded_bags import BAXTER_JOINTS, joint_states
 
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.collision import Thresholds, read_thresholds, write_thresholds
-from baxter_dynamics_ros.compensation import load_compensation
-from baxter_dynamics_ros.effects import load_effects
+from baxter_dynamics_ros.core.compensation import load_compensation
+from baxter_dynamics_ros.core.effects import load_effects
+from baxter_dynamics_ros.core.recording import Recording
 from baxter_dynamics_ros.errors import BaxterDynamicsError
-from baxter_dynamics_ros.recording import Recording
 from baxter_dynamics_ros.simulate_command import load_spec
 from msg_adapters.recording_files import read_recording
 

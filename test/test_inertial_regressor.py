@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from baxter_dynamics_ros import load_arm_model
-from baxter_dynamics_ros.arm_model import ArmModel, link_from_parameters, link_parameters
-from baxter_dynamics_ros.lagrange_euler import inertial_basis
+from baxter_dynamics_ros.core.arm_model import ArmModel, link_from_parameters, link_parameters
+from baxter_dynamics_ros.core.lagrange_euler import inertial_basis
 
 
 @pytest.fixture(scope="module")

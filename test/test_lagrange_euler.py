@@ -18,7 +18,8 @@ from reference_models import (
     random_states,
 )
 
-from baxter_dynamics_ros import ArmModel, InputShapeError, lagrange_euler, load_arm_model
+from baxter_dynamics_ros import ArmModel, InputShapeError, load_arm_model
+from baxter_dynamics_ros.core import lagrange_euler
 
 N_STATES = 1000
 RTOL = 1e-9

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from baxter_dynamics_ros import load_arm_model
-from baxter_dynamics_ros.arm_model import link_parameters, pseudo_inertia
-from baxter_dynamics_ros.log_cholesky import (
+from baxter_dynamics_ros.core.arm_model import link_parameters, pseudo_inertia
+from baxter_dynamics_ros.core.log_cholesky import (
     contraction_hessian,
     log_cholesky_from_pseudo,
     parameters_from_log_cholesky,

@@ -24,8 +24,8 @@ from hypothesis import strategies as st
 from recorded_bags import START_NS, joint_states
 
 from baxter_dynamics_ros import load_arm_model
-from baxter_dynamics_ros.acceleration import FirstDifference, LowPassDifferentiator
 from baxter_dynamics_ros.collision import DEFAULT_GAIN_1_S, MomentumObserver
+from baxter_dynamics_ros.core.acceleration import FirstDifference, LowPassDifferentiator
 from baxter_dynamics_ros.simulator import BAXTER_JOINT_NAMES
 
 rclpy = pytest.importorskip("rclpy")
@@ -549,7 +549,7 @@ def test_left_arm_namespaced_from_the_params_file_then_ctrl_c(ros_client, node_p
 
 def test_effects_file_from_the_diagnosis_is_compensated(ros_client, node_processes, tmp_path: Path) -> None:
     """An effects.yaml as `diagnose` writes it: the residual is taken against the compensated model."""
-    from baxter_dynamics_ros.compensation import load_compensation
+    from baxter_dynamics_ros.core.compensation import load_compensation
 
     effects = tmp_path / "effects.yaml"
     effects.write_text(

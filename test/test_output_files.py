@@ -1,4 +1,4 @@
-"""Outputs all or nothing (baxter_dynamics_ros.output_files), on real files in tmp_path."""
+"""Outputs all or nothing (baxter_dynamics_ros.core.output_files), on real files in tmp_path."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ from pathlib import Path
 import pytest
 from cli_runs import listing
 
+from baxter_dynamics_ros.core.output_files import check_outputs, staged_outputs
 from baxter_dynamics_ros.errors import OutputError
-from baxter_dynamics_ros.output_files import check_outputs, staged_outputs
 
 
 def test_outputs_appear_together_and_replace_old_ones_only_at_the_end(tmp_path: Path) -> None:

@@ -15,7 +15,7 @@ import yaml
 from reference_models import assert_close, pinocchio_from_arm, random_states
 
 from baxter_dynamics_ros import load_arm_model
-from baxter_dynamics_ros.acceleration import FirstDifference, LowPassDifferentiator, first_difference
+from baxter_dynamics_ros.core.acceleration import FirstDifference, LowPassDifferentiator, first_difference
 from baxter_dynamics_ros.errors import SettingsError
 from baxter_dynamics_ros.node_settings import NodeSettings
 from baxter_dynamics_ros.residuals import (
@@ -189,8 +189,8 @@ def test_a_jump_of_the_positions_without_velocity_is_skipped_and_differencing_go
 
 def test_non_finite_dynamics_skips_resets_and_is_counted(states) -> None:
     """Plausible input cannot overflow the rigid model; an absurd effects file can (damping 1e308 N·m·s/rad)."""
-    from baxter_dynamics_ros.compensation import Compensation
-    from baxter_dynamics_ros.effects import ViscousFriction
+    from baxter_dynamics_ros.core.compensation import Compensation
+    from baxter_dynamics_ros.core.effects import ViscousFriction
 
     stamps, q, qd, effort = states
     absurd = Compensation(ARM, (ViscousFriction(damping_nm_s_rad=[1e308] * 7),))

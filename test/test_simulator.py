@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from baxter_dynamics_ros import load_arm_model
-from baxter_dynamics_ros.arm_model import ArmModel
 from baxter_dynamics_ros.cli import main
-from baxter_dynamics_ros.effects import effects_from_dict, total_torque
+from baxter_dynamics_ros.core.arm_model import ArmModel
+from baxter_dynamics_ros.core.effects import effects_from_dict, total_torque
 from baxter_dynamics_ros.errors import SimulationError
 from baxter_dynamics_ros.simulator import (
     BAXTER_JOINT_NAMES,

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from baxter_dynamics_ros import load_arm_model
-from baxter_dynamics_ros.arm_model import ArmModel
+from baxter_dynamics_ros.core.arm_model import ArmModel
 from baxter_dynamics_ros.errors import SimulationError
 from baxter_dynamics_ros.trajectories import cartesian_target, make_reference, mirror_joints
 

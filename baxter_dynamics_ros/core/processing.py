@@ -1,7 +1,7 @@
 """Offline processing of a recording: q̈, gravity, inverse dynamics and residual for every sample.
 
-The same quantities as the live node, for a whole :class:`~baxter_dynamics_ros.recording.Recording`
-at once. q̈ comes from one of the estimators of :mod:`baxter_dynamics_ros.acceleration`:
+The same quantities as the live node, for a whole :class:`~baxter_dynamics_ros.core.recording.Recording`
+at once. q̈ comes from one of the estimators of :mod:`baxter_dynamics_ros.core.acceleration`:
 
 - ``zero_phase`` (default offline): Butterworth forwards and backwards on q̇, then central
   differences; no delay, uses future samples.
@@ -16,9 +16,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import RecordingError
 from .acceleration import LowPassDifferentiator, first_difference, zero_phase_acceleration
 from .arm_model import ArmModel
-from .errors import RecordingError
 from .recording import Recording
 
 __all__ = ["ACCELERATION_METHODS", "ProcessedRecording", "estimate_acceleration", "process_recording"]

@@ -39,7 +39,7 @@ import os
 import numpy as np
 from numba import njit, prange
 
-from .errors import InputShapeError
+from ..errors import InputShapeError
 
 __all__ = [
     "batch_forward_dynamics",

@@ -1,7 +1,7 @@
 """The arm model: validated, immutable Lagrange-Euler parameters of one Baxter arm.
 
 An :class:`ArmModel` holds the constants (DH table, pseudo-inertias, gravity); the algorithms of
-:mod:`baxter_dynamics_ros.lagrange_euler` do the work. Models are read from the YAML files in
+:mod:`baxter_dynamics_ros.core.lagrange_euler` do the work. Models are read from the YAML files in
 ``config/`` (``baxter_right_arm.yaml``, ``baxter_left_arm.yaml``) or any file of that layout.
 """
 
@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import ModelFileError
 from . import lagrange_euler
-from .errors import ModelFileError
 from .yaml_files import read_yaml
 
 __all__ = [
@@ -174,7 +174,7 @@ def config_dir() -> Path:
     (``pip install .``: ``<prefix>/share/baxter_dynamics_ros/config``), then in every
     ``AMENT_PREFIX_PATH`` entry (colcon workspace).
     """
-    candidates = [Path(__file__).resolve().parent.parent / "config"]
+    candidates = [Path(__file__).resolve().parents[2] / "config"]
     prefixes = [sys.prefix, *os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep)]
     candidates += [Path(p) / "share" / PACKAGE / "config" for p in prefixes if p]
     for candidate in candidates:

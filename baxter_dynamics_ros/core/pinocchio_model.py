@@ -1,4 +1,4 @@
-"""A Pinocchio model of an :class:`~baxter_dynamics_ros.arm_model.ArmModel`, as an independent reference.
+"""A Pinocchio model of an :class:`~baxter_dynamics_ros.core.arm_model.ArmModel`, as an independent reference.
 
 Pinocchio's recursive Newton-Euler algorithm (``pin.rnea``) is the RN-E method of the paper's
 comparison (Table V); built from the arm's own DH table and link inertials it must agree with the

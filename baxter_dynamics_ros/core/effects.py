@@ -43,10 +43,10 @@ from typing import Any, ClassVar
 import numpy as np
 from numba import vectorize
 
+from ..errors import EffectSpecError
 from . import lagrange_euler
 from .acceleration import zero_phase_acceleration
 from .arm_model import ArmModel, LinkInertial, link_from_parameters, link_parameters
-from .errors import EffectSpecError
 from .recording import JOINT_SUFFIXES
 from .yaml_files import read_yaml
 
@@ -77,7 +77,7 @@ N = 7
 S1 = 1  # index of joint s1 in the arm's joint order
 
 #: Names of a link's 10 inertial parameters, in the order of the core's
-#: :func:`~baxter_dynamics_ros.arm_model.link_parameters` and ``ArmModel.inertial_regressor``: mass
+#: :func:`~baxter_dynamics_ros.core.arm_model.link_parameters` and ``ArmModel.inertial_regressor``: mass
 #: (kg), first moments m·c (kg·m), inertia tensor about the DH frame's origin (kg·m²).
 INERTIAL_PARAMETERS = ("m", "mcx", "mcy", "mcz", "Ixx", "Ixy", "Ixz", "Iyy", "Iyz", "Izz")
 

@@ -16,7 +16,7 @@ centroidal second moment per unit mass, Σ_c / m = L Lᵀ (radii of gyration, m)
 mass and centre of mass are box bounds on φ, and a fit over φ can never leave the physical set.
 
 Functions work on stacks: φ (..., 10) ↔ J (..., 4, 4) ↔ π (..., 10), π the inertial parameters of
-:func:`~baxter_dynamics_ros.arm_model.link_parameters` (m, m·c, inertia tensor about the frame origin).
+:func:`~baxter_dynamics_ros.core.arm_model.link_parameters` (m, m·c, inertia tensor about the frame origin).
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ diagnosis selected, with their fitted parameters. :class:`Compensation` turns th
 node uses in place of the rigid body:
 
 - ``payload`` and ``inertial_error`` change the links' inertials: they are applied to the arm model
-  once (a new :class:`~baxter_dynamics_ros.arm_model.ArmModel`), so τ and G come from the core as before;
+  once (a new :class:`~baxter_dynamics_ros.core.arm_model.ArmModel`), so τ and G come from the core as before;
 - ``torque_offset``, the frictions, ``s1_spring`` and ``armature`` add their share of the effort,
   computed from q, q̇ and the estimated q̈ of the same sample;
 - ``delay`` and ``acceleration_noise`` describe the recording, not the arm: the node does not
@@ -20,9 +20,9 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import EffectSpecError
 from .arm_model import ArmModel
 from .effects import Effect, _InertialChange, effects_from_dict, read_spec_file
-from .errors import EffectSpecError
 
 __all__ = ["NOT_COMPENSATED", "Compensation", "load_compensation"]
 

@@ -13,7 +13,7 @@ from typing import Any
 
 import yaml
 
-from .errors import BaxterDynamicsError
+from ..errors import BaxterDynamicsError
 
 __all__ = ["read_yaml"]
 

@@ -12,7 +12,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .errors import RecordingError
+from ..errors import RecordingError
 
 __all__ = [
     "ARM_SIDES",
