@@ -45,8 +45,8 @@ setup(
     tests_require=["pytest"],
     entry_points={
         "console_scripts": [
-            "baxter-dynamics = baxter_dynamics_ros.cli:main",
-            "baxter_dynamics_node = baxter_dynamics_ros.node:main",
+            "baxter-dynamics = baxter_dynamics_ros.cli.main:main",
+            "baxter_dynamics_node = baxter_dynamics_ros.ros.node:main",
         ],
     },
 )

@@ -43,7 +43,11 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from baxter_dynamics_ros import load_arm_model
-from baxter_dynamics_ros.collision import (
+from baxter_dynamics_ros.core.arm_model import ArmModel
+from baxter_dynamics_ros.core.compensation import Compensation
+from baxter_dynamics_ros.core.effects import effects_from_dict
+from baxter_dynamics_ros.core.recording import Recording
+from baxter_dynamics_ros.monitoring.collision import (
     DEFAULT_CONSECUTIVE,
     DEFAULT_GAIN_1_S,
     DEFAULT_MARGIN,
@@ -56,11 +60,7 @@ from baxter_dynamics_ros.collision import (
     public_residual,
     without_bias,
 )
-from baxter_dynamics_ros.core.arm_model import ArmModel
-from baxter_dynamics_ros.core.compensation import Compensation
-from baxter_dynamics_ros.core.effects import effects_from_dict
-from baxter_dynamics_ros.core.recording import Recording
-from baxter_dynamics_ros.simulator import Collision, SensorModel, SimulationSpec, external_torques, simulate
+from baxter_dynamics_ros.simulation.simulator import Collision, SensorModel, SimulationSpec, external_torques, simulate
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "baxter_real"
 REAL_RATE_HZ = 100.0
@@ -193,7 +193,7 @@ class Options:
 
 
 def _diagnosed(arm: ArmModel, train: list[tuple[str, Recording]], test: list[tuple[str, Recording]]) -> Compensation:
-    from baxter_dynamics_ros.diagnosis import diagnose
+    from baxter_dynamics_ros.diagnosis.procedure import diagnose
 
     result = diagnose(arm, train, test)
     return Compensation(arm, tuple(e.effect for e in result.selected() if e.effect is not None))

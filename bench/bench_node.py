@@ -2,7 +2,7 @@
 
 Issue 3 §7. This process publishes Baxter-like ``/robot/joint_states`` (21 joints, alphabetical,
 header stamps counting the samples) at each rate and listens to ``/baxter_dynamics/residual`` from
-the node, a subprocess (``python -m baxter_dynamics_ros.node``). Latency is publish → residual
+the node, a subprocess (``python -m baxter_dynamics_ros.ros.node``). Latency is publish → residual
 received, both timed here on the monotonic clock; loss counts residuals that never came (1 s drain
 after the last publish); node CPU is its utime + stime from /proc/<pid>/stat over the run, in % of
 one core, split by thread (the node's joint-state thread, its executor, Fast DDS's threads); the
@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from baxter_dynamics_ros.ros_env import isolated_ros_env
+from baxter_dynamics_ros.ros.ros_env import isolated_ros_env
 
 REPO = Path(__file__).resolve().parents[1]
 JOINTS = sorted(
@@ -259,7 +259,7 @@ def stop_peer(process: subprocess.Popen) -> None:
 def measure(duration_s: float, rates_hz: Sequence[float]) -> dict[tuple[float, str], Result]:
     peers = {
         PONG: start_peer(["-m", "bench.bench_node", "--echo"]),
-        RESIDUAL: start_peer(["-m", "baxter_dynamics_ros.node", "--ros-args", "-p", "arm:=right"]),
+        RESIDUAL: start_peer(["-m", "baxter_dynamics_ros.ros.node", "--ros-args", "-p", "arm:=right"]),
     }
     bench = Bench()
     results = {}

@@ -30,7 +30,7 @@ from typing import TypeVar
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.core.processing import process_recording
 from baxter_dynamics_ros.core.recording import Recording
-from baxter_dynamics_ros.simulator import SimulationSpec, simulate
+from baxter_dynamics_ros.simulation.simulator import SimulationSpec, simulate
 from msg_adapters.bag_io import DEFAULT_TOPIC, read_bag_recording, write_joint_state_bag
 from msg_adapters.recording_files import write_processed
 

@@ -2,7 +2,7 @@
 
 This process publishes Baxter-like ``/robot/joint_states`` (21 joints, as :mod:`bench.bench_node`
 sends them) at ``--rate`` for ``--duration`` seconds into the node, a subprocess (``python -m
-baxter_dynamics_ros.node``, default parameters), and listens to ``~/residual``. Every ``--every``
+baxter_dynamics_ros.ros.node``, default parameters), and listens to ``~/residual``. Every ``--every``
 seconds it reads the node's resident memory (VmRSS of /proc/<pid>/status) and its CPU time; at the
 end it counts, per interval, the residuals that never came (after a 1 s drain) and their latency.
 The reference, measured in the same run: the node's RSS after a 5 s warm-up at the same rate,
@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from baxter_dynamics_ros.ros_env import isolated_ros_env
+from baxter_dynamics_ros.ros.ros_env import isolated_ros_env
 
 from .bench_node import DRAIN_S, RESIDUAL, Bench, cpu_s, start_peer, stop_peer
 
@@ -56,7 +56,7 @@ class Row:
 
 def soak(duration_s: float, rate_hz: float, every_s: float) -> tuple[float, list[Row]]:
     """(RSS after the warm-up, MB; one Row per interval)."""
-    node = start_peer(["-m", "baxter_dynamics_ros.node", "--ros-args", "-p", "arm:=right"])
+    node = start_peer(["-m", "baxter_dynamics_ros.ros.node", "--ros-args", "-p", "arm:=right"])
     bench = Bench()
     try:
         bench.wait_matched(RESIDUAL)

@@ -2,7 +2,7 @@
 
 Network safety first: at session start this sets, in ``os.environ`` (so every subprocess and every
 rclpy context of the run inherits them), ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``, a
-``ROS_DOMAIN_ID`` leased for this run only (:mod:`baxter_dynamics_ros.ros_env`: concurrent runs on
+``ROS_DOMAIN_ID`` leased for this run only (:mod:`baxter_dynamics_ros.ros.ros_env`: concurrent runs on
 the machine never share one) and ``ROS_LOG_DIR`` in a temporary folder.
 
 Fixtures:
@@ -32,7 +32,7 @@ from typing import Any
 
 import pytest
 
-from baxter_dynamics_ros.ros_env import isolated_ros_env, lease_domain_id
+from baxter_dynamics_ros.ros.ros_env import isolated_ros_env, lease_domain_id
 
 REPO = Path(__file__).resolve().parent.parent
 _session = ExitStack()
@@ -199,7 +199,7 @@ class NodeProcesses:
         self.log_dir = log_dir
         self.started: list[NodeProcess] = []
 
-    def start(self, ros_args: Sequence[str] = (), module: str = "baxter_dynamics_ros.node") -> NodeProcess:
+    def start(self, ros_args: Sequence[str] = (), module: str = "baxter_dynamics_ros.ros.node") -> NodeProcess:
         node = NodeProcess(module, ros_args, self.log_dir / f"node-{len(self.started)}.log")
         self.started.append(node)
         return node

@@ -50,7 +50,7 @@ def test_a_rate_that_disagrees_with_the_estimate_is_refused(export_100_hz: Path,
 def sim(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     """Simulated right-arm recordings as the robot publishes them (21 joints, the left arm still):
     ``train`` (12 s) and ``test`` (4 s) bags, ``table`` (the test data as CSV), ``short`` (1 s)."""
-    from baxter_dynamics_ros.simulator import SimulationSpec, simulate
+    from baxter_dynamics_ros.simulation.simulator import SimulationSpec, simulate
     from msg_adapters.recording_files import write_joint_states
 
     folder = tmp_path_factory.mktemp("sim")

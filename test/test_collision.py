@@ -12,8 +12,12 @@ import pytest
 from reference_models import pinocchio_from_arm, random_states
 
 from baxter_dynamics_ros import load_arm_model
-from baxter_dynamics_ros.cli import main
-from baxter_dynamics_ros.collision import (
+from baxter_dynamics_ros.cli.main import main
+from baxter_dynamics_ros.core.arm_model import ArmModel
+from baxter_dynamics_ros.core.compensation import Compensation
+from baxter_dynamics_ros.core.effects import effects_from_dict
+from baxter_dynamics_ros.errors import CollisionError, EffectSpecError
+from baxter_dynamics_ros.monitoring.collision import (
     DEFAULT_BIAS_TIME_CONSTANT_S,
     DEFAULT_MARGIN,
     PUBLIC_THRESHOLDS_NM,
@@ -33,11 +37,7 @@ from baxter_dynamics_ros.collision import (
     without_bias,
     write_thresholds,
 )
-from baxter_dynamics_ros.core.arm_model import ArmModel
-from baxter_dynamics_ros.core.compensation import Compensation
-from baxter_dynamics_ros.core.effects import effects_from_dict
-from baxter_dynamics_ros.errors import CollisionError, EffectSpecError
-from baxter_dynamics_ros.simulator import (
+from baxter_dynamics_ros.simulation.simulator import (
     Collision,
     SensorModel,
     SimulationSpec,
@@ -353,8 +353,8 @@ def test_calibrate_cli(tmp_path: Path, pushed, capsys: pytest.CaptureFixture[str
 
 # ----------------------------------------------------------------------------- the node's monitor (no ROS)
 def test_monitor_calibrates_on_the_last_window_only_and_reports_collisions() -> None:
-    from baxter_dynamics_ros.collision_monitor import MAX_RATE_HZ, CollisionMonitor
-    from baxter_dynamics_ros.residuals import Health, HealthReport
+    from baxter_dynamics_ros.monitoring.collision_monitor import MAX_RATE_HZ, CollisionMonitor
+    from baxter_dynamics_ros.monitoring.residuals import Health, HealthReport
 
     names = load_arm_model("right").joint_names
     monitor = CollisionMonitor(names, window_s=1.0, gain_1_s=30.0)
@@ -396,8 +396,8 @@ def test_monitor_computes_r_at_calibration_when_the_observer_did_not_run() -> No
     its first settling time constants left out, and gets the thresholds of that r."""
     import functools
 
-    from baxter_dynamics_ros.collision import calibrate_thresholds, observe_arrays
-    from baxter_dynamics_ros.collision_monitor import SETTLE_TIME_CONSTANTS, CollisionMonitor
+    from baxter_dynamics_ros.monitoring.collision import calibrate_thresholds, observe_arrays
+    from baxter_dynamics_ros.monitoring.collision_monitor import SETTLE_TIME_CONSTANTS, CollisionMonitor
 
     arm = load_arm_model("right")
     rng = np.random.default_rng(5)

@@ -30,8 +30,8 @@ import pytest
 import yaml
 
 from baxter_dynamics_ros import load_arm_model
-from baxter_dynamics_ros.cli import main
-from baxter_dynamics_ros.collision import observe_arrays, read_thresholds
+from baxter_dynamics_ros.cli.main import main
+from baxter_dynamics_ros.monitoring.collision import observe_arrays, read_thresholds
 from msg_adapters.recording_files import read_recording
 
 rclpy = pytest.importorskip("rclpy")

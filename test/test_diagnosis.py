@@ -21,10 +21,10 @@ from scipy.signal import butter, sosfiltfilt
 
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.core.effects import Delay, InertialError, Payload, effects_from_dict, load_effects
-from baxter_dynamics_ros.diagnosis import CANDIDATE_NAMES, diagnose
-from baxter_dynamics_ros.diagnosis_fit import COM_BOX_M, MASS_RANGE, PAYLOAD_COM_BOX_M, PAYLOAD_MASS_KG
-from baxter_dynamics_ros.diagnosis_report import effects_yaml
-from baxter_dynamics_ros.diagnosis_validation import HARD, NO_OP_NM, REQUIRED_SHRINK, SCENARIOS, Scenario, _single, rigid_mse, run_scenario
+from baxter_dynamics_ros.diagnosis.fit import COM_BOX_M, MASS_RANGE, PAYLOAD_COM_BOX_M, PAYLOAD_MASS_KG
+from baxter_dynamics_ros.diagnosis.procedure import CANDIDATE_NAMES, diagnose
+from baxter_dynamics_ros.diagnosis.report import effects_yaml
+from baxter_dynamics_ros.diagnosis.validation import HARD, NO_OP_NM, REQUIRED_SHRINK, SCENARIOS, Scenario, _single, rigid_mse, run_scenario
 
 REAL = Path(__file__).resolve().parent.parent.parent / "shared" / "data" / "baxter_real"
 REAL_FILES = sorted(REAL.glob("*.csv"))
@@ -176,7 +176,7 @@ def test_a_set_that_does_not_carry_over_is_said_to() -> None:
     the verdict says so per joint and in plain words at the top."""
     gripper = {"payload": {"mass_kg": 1.5, "com_m": [0.0, 0.0, 0.1]}}
     scenario = Scenario("gripper in training only", gripper, per_recording=())
-    from baxter_dynamics_ros.diagnosis_validation import _arm, _recordings
+    from baxter_dynamics_ros.diagnosis.validation import _arm, _recordings
 
     train = _recordings(scenario, scenario.train, ())
     test = _recordings(Scenario("no gripper", {}), scenario.test, ())
@@ -202,7 +202,7 @@ def test_uncertain_selection_is_marked() -> None:
 def test_rigid_reference_is_the_raw_world() -> None:
     """The shrink's baseline: the rigid model with the paper's q̈ on the clean test recordings is
     what the simulator's sensor noise alone leaves (a sanity check of the judge)."""
-    from baxter_dynamics_ros.diagnosis_validation import RATE_HZ, SENSOR, TEST, _clean_test
+    from baxter_dynamics_ros.diagnosis.validation import RATE_HZ, SENSOR, TEST, _clean_test
 
     clean = _clean_test(TEST, RATE_HZ, SENSOR)
     assert 0.0 < rigid_mse(clean) < 7 * 0.5**2

@@ -1,6 +1,6 @@
 """The live node against the core, in real processes over loopback (issue 3, §1–6).
 
-The node runs as ``python -m baxter_dynamics_ros.node`` in its own process; this process publishes
+The node runs as ``python -m baxter_dynamics_ros.ros.node`` in its own process; this process publishes
 Baxter-like joint states (all 21 joints, alphabetical, 100 Hz) and listens to the outputs. Expected
 values come from the core directly — ``arm.gravity``, ``arm.inverse_dynamics`` and the q̈
 estimator fed the same samples and stamps — not from the node's pipeline. Discovery stays on this
@@ -24,9 +24,9 @@ from hypothesis import strategies as st
 from recorded_bags import START_NS, joint_states
 
 from baxter_dynamics_ros import load_arm_model
-from baxter_dynamics_ros.collision import DEFAULT_GAIN_1_S, MomentumObserver
 from baxter_dynamics_ros.core.acceleration import FirstDifference, LowPassDifferentiator
-from baxter_dynamics_ros.simulator import BAXTER_JOINT_NAMES
+from baxter_dynamics_ros.monitoring.collision import DEFAULT_GAIN_1_S, MomentumObserver
+from baxter_dynamics_ros.simulation.simulator import BAXTER_JOINT_NAMES
 
 rclpy = pytest.importorskip("rclpy")
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
@@ -591,7 +591,7 @@ def test_effects_file_from_the_diagnosis_is_compensated(ros_client, node_process
 )
 def test_bad_parameters_stop_the_node_with_one_error_line(ros_domain, args: list[str], field: str) -> None:
     script = Path(sys.executable).parent / "baxter_dynamics_node"
-    command = [str(script)] if script.exists() else [sys.executable, "-m", "baxter_dynamics_ros.node"]
+    command = [str(script)] if script.exists() else [sys.executable, "-m", "baxter_dynamics_ros.ros.node"]
     result = subprocess.run([*command, "--ros-args", *args], capture_output=True, text=True, timeout=60)
     assert result.returncode == 1
     lines = result.stderr.strip().splitlines()
@@ -601,7 +601,7 @@ def test_bad_parameters_stop_the_node_with_one_error_line(ros_domain, args: list
 
 # ----------------------------------------------------------------------------- the joint-state thread
 def test_subscription_thread_takes_every_message_in_order_and_stops(ros_domain) -> None:
-    from baxter_dynamics_ros.node import OwnThreadGroup, SubscriptionThread
+    from baxter_dynamics_ros.ros.node import OwnThreadGroup, SubscriptionThread
 
     context = rclpy.Context()
     rclpy.init(context=context)
@@ -633,7 +633,7 @@ def test_subscription_thread_takes_every_message_in_order_and_stops(ros_domain) 
 
 
 def test_a_defect_in_the_joint_state_thread_stops_the_program(ros_domain) -> None:
-    from baxter_dynamics_ros.node import OwnThreadGroup, SubscriptionThread
+    from baxter_dynamics_ros.ros.node import OwnThreadGroup, SubscriptionThread
 
     context = rclpy.Context()
     rclpy.init(context=context)

@@ -26,7 +26,7 @@ from test_node import (
     set_parameter,
 )
 
-from baxter_dynamics_ros.node_settings import NodeSettings
+from baxter_dynamics_ros.ros.node_settings import NodeSettings
 
 rclpy = pytest.importorskip("rclpy")
 from rcl_interfaces.srv import DescribeParameters  # noqa: E402
@@ -138,7 +138,7 @@ def test_a_non_finite_state_is_reset_counted_and_never_reported_ok(absurd_model_
 
 # --------------------------------------------------------------------------- files and parameters
 def run_node(*ros_args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "baxter_dynamics_ros.node", "--ros-args", *ros_args], capture_output=True, text=True, timeout=60)
+    return subprocess.run([sys.executable, "-m", "baxter_dynamics_ros.ros.node", "--ros-args", *ros_args], capture_output=True, text=True, timeout=60)
 
 
 def the_error(result: subprocess.CompletedProcess) -> str:

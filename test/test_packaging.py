@@ -60,7 +60,7 @@ def test_installed_package_loads_models_from_its_share_folder(colcon_install: Pa
     env = dict(os.environ, PYTHONPATH=str(site), AMENT_PREFIX_PATH=str(colcon_install))
     code = (
         "import baxter_dynamics_ros as b; from baxter_dynamics_ros.core.arm_model import config_dir;"
-        "import msg_adapters.recording_files, baxter_dynamics_ros.node;"
+        "import msg_adapters.recording_files, baxter_dynamics_ros.ros.node;"
         "m = b.load_arm_model('left'); print(b.__file__); print(config_dir()); print(m.joint_names[0])"
     )
     out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True)

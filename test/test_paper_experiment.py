@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from baxter_dynamics_ros import load_arm_model
-from baxter_dynamics_ros.cli import main
+from baxter_dynamics_ros.cli.main import main
 from baxter_dynamics_ros.core.pinocchio_model import pinocchio_from_arm, rnea
-from baxter_dynamics_ros.paper_experiment import SETS, SetResult, run_experiment
+from baxter_dynamics_ros.diagnosis.paper_experiment import SETS, SetResult, run_experiment
 
 DURATION_S = 6.0
 

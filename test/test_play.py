@@ -1,6 +1,6 @@
 """``baxter-dynamics play`` into the live node, against ``process`` on the same bag, sample by sample.
 
-Real processes over loopback: the node (``python -m baxter_dynamics_ros.node`` on use_sim_time),
+Real processes over loopback: the node (``python -m baxter_dynamics_ros.ros.node`` on use_sim_time),
 the player (the console command) and this process's client, all on the private local ROS graph
 that test/conftest.py sets up (LOCALHOST discovery, a domain id of the module's own, ROS_LOG_DIR in
 a temporary folder), which the subprocesses inherit through os.environ.
@@ -19,7 +19,7 @@ import pytest
 from recorded_bags import BAXTER_JOINTS, joint_states, write_reference_bag
 from test_process_command import read_output_bag
 
-from baxter_dynamics_ros.cli import main
+from baxter_dynamics_ros.cli.main import main
 from msg_adapters.bag_io import RESULT_TOPICS
 
 REPO = Path(__file__).resolve().parents[1]

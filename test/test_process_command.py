@@ -12,7 +12,7 @@ from recorded_bags import BAXTER_JOINTS, bag_path, bag_storage_file, joint_state
 from test_recordings_io import REAL_FILES, listing_of, write_baxter_export
 
 from baxter_dynamics_ros import load_arm_model
-from baxter_dynamics_ros.cli import main
+from baxter_dynamics_ros.cli.main import main
 from baxter_dynamics_ros.core.acceleration import LowPassDifferentiator, first_difference, zero_phase_acceleration
 from baxter_dynamics_ros.core.recording import arm_joint_names
 from msg_adapters.bag_io import RESULT_TOPICS, read_bag_recording
@@ -252,7 +252,7 @@ def test_progress_bar_only_when_asked(recorded, tmp_path: Path, capsys) -> None:
 def test_console_script_process_never_imports_rclpy(recorded, tmp_path: Path) -> None:
     path, _ = recorded
     code = (
-        "import sys; from baxter_dynamics_ros.cli import main; "
+        "import sys; from baxter_dynamics_ros.cli.main import main; "
         f"status = main(['process', {str(path)!r}, '--out', {str(tmp_path / 'r.csv')!r}]); "
         "assert 'rclpy' not in sys.modules, 'rclpy imported'; sys.exit(status)"
     )

@@ -306,7 +306,7 @@ def test_a_table_whose_columns_name_no_arm_is_read_with_the_arm_given(tmp_path: 
 def test_simulated_500_hz_table_without_time_or_arm_names_reads_back_at_500_hz(tmp_path: Path) -> None:
     """Written by the simulator and msg_adapters' writer, then made into another dataset's file:
     the time columns dropped, the right arm's columns renamed without the arm."""
-    from baxter_dynamics_ros.simulator import SimulationSpec, simulate
+    from baxter_dynamics_ros.simulation.simulator import SimulationSpec, simulate
 
     result = simulate(SimulationSpec(trajectory="random", duration_s=3.0, rate_hz=500.0, seed=4, side="right"))
     states = result.robot_joint_states()

@@ -17,8 +17,7 @@ from reference_models import assert_close, pinocchio_from_arm, random_states
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.core.acceleration import FirstDifference, LowPassDifferentiator, first_difference
 from baxter_dynamics_ros.errors import SettingsError
-from baxter_dynamics_ros.node_settings import NodeSettings
-from baxter_dynamics_ros.residuals import (
+from baxter_dynamics_ros.monitoring.residuals import (
     ArmSample,
     Health,
     HealthMonitor,
@@ -28,6 +27,7 @@ from baxter_dynamics_ros.residuals import (
     SkipReason,
     make_estimator,
 )
+from baxter_dynamics_ros.ros.node_settings import NodeSettings
 
 REPO = Path(__file__).resolve().parent.parent
 ARM = load_arm_model("right")

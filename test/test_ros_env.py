@@ -6,7 +6,7 @@ import os
 import subprocess
 import sys
 
-from baxter_dynamics_ros.ros_env import DOMAIN_IDS, isolated_ros_env, lease_domain_id
+from baxter_dynamics_ros.ros.ros_env import DOMAIN_IDS, isolated_ros_env, lease_domain_id
 
 
 def test_concurrent_leases_get_distinct_ids_and_released_ids_return(tmp_path) -> None:
@@ -17,7 +17,7 @@ def test_concurrent_leases_get_distinct_ids_and_released_ids_return(tmp_path) ->
 
 
 def test_a_lease_held_by_another_process_is_skipped() -> None:
-    code = "from baxter_dynamics_ros.ros_env import lease_domain_id\nwith lease_domain_id() as d:\n print(d, flush=True)\n input()"
+    code = "from baxter_dynamics_ros.ros.ros_env import lease_domain_id\nwith lease_domain_id() as d:\n print(d, flush=True)\n input()"
     other = subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     try:
         held = int(other.stdout.readline())

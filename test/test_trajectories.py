@@ -8,7 +8,7 @@ import pytest
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.core.arm_model import ArmModel
 from baxter_dynamics_ros.errors import SimulationError
-from baxter_dynamics_ros.trajectories import cartesian_target, make_reference, mirror_joints
+from baxter_dynamics_ros.simulation.trajectories import cartesian_target, make_reference, mirror_joints
 
 DURATION_S = 10.0
 

@@ -26,7 +26,7 @@ The s1 gravity-assist spring
     (+37 N·m extrapolated to q_s1 = 0, +5 N·m at q_s1 = −1.3).
 
 Measurement effects (``torque_offset``, ``delay``, ``acceleration_noise``) change what is recorded,
-not how the arm moves; the others act on the arm (see :mod:`baxter_dynamics_ros.simulator`).
+not how the arm moves; the others act on the arm (see :mod:`baxter_dynamics_ros.simulation.simulator`).
 
 The friction and spring laws are numba ufuncs, so that the simulator's compiled loop and these
 numpy methods evaluate the very same expressions.

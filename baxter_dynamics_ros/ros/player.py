@@ -22,7 +22,7 @@ from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
-from .errors import PlaybackError
+from ..errors import PlaybackError
 
 __all__ = ["BagPlayer", "play"]
 

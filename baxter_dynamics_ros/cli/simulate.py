@@ -28,7 +28,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from .errors import EffectSpecError
+from ..errors import EffectSpecError
 
 SPEC_SECTIONS = ("effects", "sensor", "controller", "collisions")
 DEFAULT_TOPIC = "/robot/joint_states"
@@ -36,7 +36,7 @@ DEFAULT_TOPIC = "/robot/joint_states"
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The command's options."""
-    from .trajectories import TRAJECTORIES
+    from ..simulation.trajectories import TRAJECTORIES
 
     parser.add_argument("--trajectory", choices=TRAJECTORIES, default="paper_xyz", help="reference trajectory (default paper_xyz)")
     parser.add_argument("--effects", type=Path, metavar="SPEC.yaml", help="effects spec (default: none, the rigid-body arm)")
@@ -56,9 +56,9 @@ def ground_truth_path(out: Path) -> Path:
 
 def load_spec(path: Path | None) -> dict:
     """The simulation settings of an effects spec file (None: the rigid-body arm, no collisions), as
-    :class:`~baxter_dynamics_ros.simulator.SimulationSpec` arguments: effects, sensor, controller, collisions."""
-    from .core.effects import effects_from_dict, read_spec_file
-    from .simulator import ControllerGains, SensorModel
+    :class:`~baxter_dynamics_ros.simulation.simulator.SimulationSpec` arguments: effects, sensor, controller, collisions."""
+    from ..core.effects import effects_from_dict, read_spec_file
+    from ..simulation.simulator import ControllerGains, SensorModel
 
     raw = {} if path is None else read_spec_file(path)
     unknown = set(raw) - set(SPEC_SECTIONS)
@@ -75,7 +75,7 @@ def load_spec(path: Path | None) -> dict:
 
 def _collisions(raw, where: str):
     """The spec's ``collisions:`` list as simulator Collisions."""
-    from .simulator import Collision
+    from ..simulation.simulator import Collision
 
     if not isinstance(raw, list):
         raise EffectSpecError(f"{where}: collisions must be a list of mappings, got {raw!r}")
@@ -86,8 +86,8 @@ def run(args: argparse.Namespace) -> int:
     """Simulate args into args.out and its ground truth; returns 0 (errors raise BaxterDynamicsError)."""
     from msg_adapters.recording_files import check_output, write_joint_states
 
-    from .core.output_files import check_outputs, staged_outputs
-    from .simulator import SimulationSpec, simulate, write_ground_truth
+    from ..core.output_files import check_outputs, staged_outputs
+    from ..simulation.simulator import SimulationSpec, simulate, write_ground_truth
 
     truth = ground_truth_path(args.out)
     check_output(args.out, replace=args.force)  # before simulating: fail fast

@@ -1,7 +1,7 @@
 """``baxter-dynamics calibrate FILES... --out thresholds.yaml``: collision thresholds from collision-free data.
 
 Estimates the effort–state alignment of the files (or takes ``--effort-delay``), runs the momentum
-observer (:mod:`baxter_dynamics_ros.collision`, gain ``--gain``) with it over every file, with the
+observer (:mod:`baxter_dynamics_ros.monitoring.collision`, gain ``--gain``) with it over every file, with the
 effects of ``--effects`` compensated, removes the slow bias (``--bias-time-constant``) and writes
 per-joint thresholds a + b|q̇| by the calibration rule of that module (``--margin``;
 ``--consecutive`` samples in a row above before a detection; ``--constant`` for b = 0). The
@@ -17,14 +17,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .errors import CollisionError, RecordingError, RecordingFileError
+from ..errors import CollisionError, RecordingError, RecordingFileError
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The command's options."""
     from msg_adapters.bag_io import DEFAULT_TOPIC
 
-    from .collision import DEFAULT_BIAS_TIME_CONSTANT_S, DEFAULT_CONSECUTIVE, DEFAULT_GAIN_1_S, DEFAULT_MARGIN
+    from ..monitoring.collision import DEFAULT_BIAS_TIME_CONSTANT_S, DEFAULT_CONSECUTIVE, DEFAULT_GAIN_1_S, DEFAULT_MARGIN
 
     parser.add_argument("files", type=Path, nargs="+", metavar="FILE", help="collision-free recordings (bags or tables)")
     parser.add_argument("--out", "-o", type=Path, required=True, metavar="YAML", help="thresholds file to write")
@@ -52,7 +52,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _check_paths(files: list[Path], out: Path, force: bool) -> None:
-    from .core.output_files import check_outputs
+    from ..core.output_files import check_outputs
 
     for path in files:
         if not path.exists():
@@ -68,10 +68,10 @@ def run(args: argparse.Namespace) -> int:
     """Calibrate and write args.out; returns 0 (errors raise BaxterDynamicsError)."""
     from msg_adapters.recording_files import read_recording
 
-    from .collision import calibrate, write_thresholds
-    from .core.arm_model import load_arm_model
-    from .core.compensation import load_compensation
-    from .core.recording import MIN_FIT_S, require_length
+    from ..core.arm_model import load_arm_model
+    from ..core.compensation import load_compensation
+    from ..core.recording import MIN_FIT_S, require_length
+    from ..monitoring.collision import calibrate, write_thresholds
 
     _check_paths(args.files, args.out, args.force)
     recordings = [read_recording(p, topic=args.topic, arm=args.arm, rate_hz=args.rate_hz) for p in args.files]

@@ -10,7 +10,7 @@
 5. ``diagnose``: where the gap lies, which effects cause it, how far it shrinks on the test bag.
 6. The node again, now with the diagnosis' ``effects.yaml``: the residual it publishes shrinks.
 
-Every ROS process runs on a private, local ROS graph (:mod:`baxter_dynamics_ros.ros_env`). Outputs
+Every ROS process runs on a private, local ROS graph (:mod:`baxter_dynamics_ros.ros.ros_env`). Outputs
 go to ``out/demo`` (or ``--out``), replaced on each run; nothing else is written.
 """
 
@@ -27,8 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .core.arm_model import load_arm_model
-from .ros_env import isolated_ros_env
+from ..core.arm_model import load_arm_model
+from ..ros.ros_env import isolated_ros_env
 
 EFFECTS = {
     "s1_spring": {},
@@ -45,7 +45,7 @@ def _say(text: str) -> None:
 
 def model_table() -> None:
     """Step 1: G, diag M and τ at a few instants of the paper's first trajectory (right arm)."""
-    from .trajectories import make_reference
+    from ..simulation.trajectories import make_reference
 
     arm = load_arm_model("right")
     ref = make_reference(arm, "paper_xyz", 10.0)
@@ -67,8 +67,8 @@ def simulate_recordings(out: Path) -> dict[str, Path]:
     """Step 2: the simulated recordings (mcap bags with Baxter's joint names)."""
     from msg_adapters.recording_files import write_joint_states
 
-    from .core.effects import effects_from_dict
-    from .simulator import SensorModel, SimulationSpec, simulate, write_ground_truth
+    from ..core.effects import effects_from_dict
+    from ..simulation.simulator import SensorModel, SimulationSpec, simulate, write_ground_truth
 
     _say(f"\n2. Simulating {len(RECORDINGS)} recordings of {DURATION_S:g} s with effects the model lacks: {', '.join(EFFECTS)}")
     arm = load_arm_model("right")
@@ -96,7 +96,7 @@ def live_node(bag: Path, effects_file: Path | None = None) -> np.ndarray:
 
     extra = [] if effects_file is None else ["-p", f"effects_file:={effects_file}"]
     node_proc = subprocess.Popen(
-        [sys.executable, "-m", "baxter_dynamics_ros.node", "--ros-args", "-p", "arm:=right", "-p", "use_sim_time:=true", *extra],
+        [sys.executable, "-m", "baxter_dynamics_ros.ros.node", "--ros-args", "-p", "arm:=right", "-p", "use_sim_time:=true", *extra],
         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
     )
     context = rclpy.Context()
@@ -138,7 +138,7 @@ def live_node(bag: Path, effects_file: Path | None = None) -> np.ndarray:
 
 def show_live_residual(bag: Path) -> np.ndarray:
     """Step 3: the rigid-body node on the test bag; a few of its ~/residual messages."""
-    _say("\n3. The node (python -m baxter_dynamics_ros.node, use_sim_time) with the test bag played into it")
+    _say("\n3. The node (python -m baxter_dynamics_ros.ros.node, use_sim_time) with the test bag played into it")
     residual, stamps = live_node(bag)
     _say(f"   received {len(residual)} messages on /baxter_dynamics/residual (measured effort − model τ, N·m); every 400th:")
     first = stamps[0].sec + stamps[0].nanosec * 1e-9 if stamps else 0.0
@@ -153,7 +153,7 @@ def process_and_plot(bag: Path, out: Path) -> Path:
     """Step 4: ``process`` the bag and plot measured against modelled torques."""
     from msg_adapters.recording_files import read_recording, write_processed
 
-    from .core.processing import process_recording
+    from ..core.processing import process_recording
 
     _say("\n4. Offline: baxter-dynamics process (zero-phase q̈) and a plot")
     recording = read_recording(bag)
@@ -184,7 +184,7 @@ def process_and_plot(bag: Path, out: Path) -> Path:
 
 def diagnosis(paths: dict[str, Path], out: Path) -> Path:
     """Step 5: the diagnosis, trained on the three training bags, measured on the test bag."""
-    from .cli import main as cli
+    from .main import main as cli
 
     _say("\n5. baxter-dynamics diagnose --train train-*.mcap --test test.mcap")
     target = out / "diagnosis"
@@ -206,7 +206,7 @@ def compensated_node(bag: Path, effects_file: Path, rigid_rms: np.ndarray) -> No
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m baxter_dynamics_ros.demo", description=__doc__.split("\n", 1)[0])
+    parser = argparse.ArgumentParser(prog="python -m baxter_dynamics_ros.cli.demo", description=__doc__.split("\n", 1)[0])
     parser.add_argument("--out", type=Path, default=Path("out/demo"), help="output folder (default out/demo)")
     args = parser.parse_args(argv)
     out = args.out

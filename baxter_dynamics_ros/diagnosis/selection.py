@@ -37,9 +37,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import chi2
 
-from .core.arm_model import ArmModel
-from .diagnosis_fit import DECORRELATION_S, Fit, Fitter, Model, Term
-from .diagnosis_statistics import S1, ColumnLayout, N, Pool
+from ..core.arm_model import ArmModel
+from .fit import DECORRELATION_S, Fit, Fitter, Model, Term
+from .statistics import S1, ColumnLayout, N, Pool
 
 __all__ = ["Evaluation", "Selection", "select"]
 

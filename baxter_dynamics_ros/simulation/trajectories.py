@@ -32,9 +32,9 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from .core import lagrange_euler
-from .core.arm_model import ArmModel
-from .errors import SimulationError
+from ..core import lagrange_euler
+from ..core.arm_model import ArmModel
+from ..errors import SimulationError
 
 __all__ = ["SEED_POSTURE_RAD", "TRAJECTORIES", "JointReference", "cartesian_target", "make_reference", "mirror_joints", "seed_posture"]
 

@@ -37,7 +37,7 @@ def run(args: argparse.Namespace) -> int:
     from msg_adapters.bag_io import DEFAULT_TOPIC, read_joint_state_messages
     from msg_adapters.recording_files import TABLE_SUFFIXES
 
-    from .errors import PlaybackError
+    from ..errors import PlaybackError
 
     if not (args.speed > 0):
         raise PlaybackError(f"--speed must be positive, got {args.speed}")
@@ -47,6 +47,6 @@ def run(args: argparse.Namespace) -> int:
             f"`baxter-dynamics process {args.bag} --out BAG.mcap` and play it with --topics {DEFAULT_TOPIC}"
         )
     messages = read_joint_state_messages(args.bag, args.topics)
-    from .player import play  # imports rclpy: only once the bag has been read
+    from ..ros.player import play  # imports rclpy: only once the bag has been read
 
     return play(messages, speed=args.speed, loop=args.loop, wait_for_subscribers_s=args.wait_for_subscribers)

@@ -1,6 +1,6 @@
 """Fitting a set of candidate effects on sufficient statistics, inside the physical set.
 
-A *model* is a set of terms: a candidate effect (:class:`~baxter_dynamics_ros.diagnosis_statistics.Candidate`)
+A *model* is a set of terms: a candidate effect (:class:`~baxter_dynamics_ros.diagnosis.statistics.Candidate`)
 and, for the per-joint kinds, the joints it acts on. Its fit minimises the weighted squared error
 
     Σ_j w_j ‖r_j − Φ_j x‖² + λ ‖(φ − φ₀) / σ_φ‖²
@@ -37,10 +37,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import lsq_linear
 
-from .core.arm_model import ArmModel, pseudo_inertia
-from .core.log_cholesky import contraction_hessian, log_cholesky_from_pseudo, parameters_from_log_cholesky
-from .diagnosis_statistics import S1, Candidate, ColumnLayout, N, Pool
-from .errors import DiagnosisError
+from ..core.arm_model import ArmModel, pseudo_inertia
+from ..core.log_cholesky import contraction_hessian, log_cholesky_from_pseudo, parameters_from_log_cholesky
+from ..errors import DiagnosisError
+from .statistics import S1, Candidate, ColumnLayout, N, Pool
 
 __all__ = ["DECORRELATION_S", "Fit", "Fitter", "Model", "Term"]
 

@@ -34,7 +34,7 @@ into G(q), τ and the residual, or into a :class:`SkipReason` (the message reade
    number far from overflow, so this is a guard, not an expected path;
 7. residual = measured effort − τ, or None when the message has no effort;
 8. external torque r = the generalised-momentum observer's output
-   (:class:`~baxter_dynamics_ros.collision.MomentumObserver`, gain ``observer_gain_1_s``, effort–state
+   (:class:`~baxter_dynamics_ros.monitoring.collision.MomentumObserver`, gain ``observer_gain_1_s``, effort–state
    alignment ``observer_effort_delay_s``, the same compensated model) on the samples with effort, or None without effort. The observer restarts
    (r = 0) with the estimator, and after a sample without effort.
 
@@ -58,13 +58,13 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from ..core import lagrange_euler
+from ..core.acceleration import FirstDifference, LowPassDifferentiator
+from ..core.arm_model import ArmModel
+from ..core.compensation import Compensation
+from ..errors import CollisionError, SettingsError
+from ..ros.node_settings import ESTIMATORS
 from .collision import DEFAULT_GAIN_1_S, MomentumObserver
-from .core import lagrange_euler
-from .core.acceleration import FirstDifference, LowPassDifferentiator
-from .core.arm_model import ArmModel
-from .core.compensation import Compensation
-from .errors import CollisionError, SettingsError
-from .node_settings import ESTIMATORS
 
 __all__ = [
     "ArmSample",

@@ -73,13 +73,13 @@ import numpy as np
 import yaml
 from numba import njit
 
-from .core import lagrange_euler
-from .core.arm_model import ArmModel
-from .core.compensation import Compensation
-from .core.output_files import staged_outputs
-from .core.recording import JOINT_SUFFIXES, Recording
-from .core.yaml_files import read_yaml
-from .errors import CollisionError
+from ..core import lagrange_euler
+from ..core.arm_model import ArmModel
+from ..core.compensation import Compensation
+from ..core.output_files import staged_outputs
+from ..core.recording import JOINT_SUFFIXES, Recording
+from ..core.yaml_files import read_yaml
+from ..errors import CollisionError
 
 __all__ = [
     "DEFAULT_BIAS_TIME_CONSTANT_S",

@@ -12,14 +12,14 @@ import argparse
 import sys
 from pathlib import Path
 
-from .errors import RecordingFileError
+from ..errors import RecordingFileError
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The command's options."""
     from msg_adapters.bag_io import DEFAULT_TOPIC
 
-    from .core.processing import ACCELERATION_METHODS
+    from ..core.processing import ACCELERATION_METHODS
 
     parser.add_argument("input", type=Path, metavar="INPUT", help="bag (.bag, ROS 2 folder, .mcap, .db3) or table (.csv, .txt, .parquet)")
     parser.add_argument(
@@ -60,8 +60,8 @@ def run(args: argparse.Namespace) -> int:
     """Process args.input into args.out; returns 0 (errors raise BaxterDynamicsError)."""
     from msg_adapters.recording_files import check_output, read_recording, write_processed
 
-    from .core.arm_model import load_arm_model
-    from .core.processing import process_recording
+    from ..core.arm_model import load_arm_model
+    from ..core.processing import process_recording
     from .progress import ProgressBar
 
     _check_paths(args.input, args.out)

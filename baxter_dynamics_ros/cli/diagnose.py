@@ -19,7 +19,7 @@ import sys
 from collections.abc import Hashable
 from pathlib import Path
 
-from .errors import DiagnosisError, RecordingFileError
+from ..errors import DiagnosisError, RecordingFileError
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -38,8 +38,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _check_paths(inputs: list[Path], out: Path, force: bool) -> None:
-    from .core.output_files import check_outputs
-    from .diagnosis_report import OUTPUT_FILES
+    from ..core.output_files import check_outputs
+    from ..diagnosis.report import OUTPUT_FILES
 
     for path in inputs:
         if not path.exists():
@@ -55,9 +55,9 @@ def run(args: argparse.Namespace) -> int:
     """Diagnose and write the outputs; returns 0 (errors raise BaxterDynamicsError)."""
     from msg_adapters.recording_files import read_recording
 
-    from .core.arm_model import load_arm_model
-    from .diagnosis import diagnose
-    from .diagnosis_report import write_diagnosis
+    from ..core.arm_model import load_arm_model
+    from ..diagnosis.procedure import diagnose
+    from ..diagnosis.report import write_diagnosis
     from .progress import ProgressBar
 
     _check_paths([*args.train, *args.test], args.out, args.force)
@@ -122,7 +122,7 @@ def _fingerprint(rec) -> str:
 
 
 def _split_last_quarter(label, rec):
-    from .core.recording import MIN_RECORDING_S, MIN_RECORDING_SAMPLES, Recording
+    from ..core.recording import MIN_RECORDING_S, MIN_RECORDING_SAMPLES, Recording
 
     n = len(rec)
     cut = (3 * n) // 4

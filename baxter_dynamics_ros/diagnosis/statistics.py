@@ -20,9 +20,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .core.acceleration import first_difference, zero_phase_acceleration
-from .core.arm_model import ArmModel
-from .core.effects import (
+from ..core.acceleration import first_difference, zero_phase_acceleration
+from ..core.arm_model import ArmModel
+from ..core.effects import (
     Armature,
     CoulombFriction,
     Delay,
@@ -33,7 +33,7 @@ from .core.effects import (
     TorqueOffset,
     ViscousFriction,
 )
-from .core.recording import JOINT_SUFFIXES, Recording
+from ..core.recording import JOINT_SUFFIXES, Recording
 
 __all__ = [
     "Block",
@@ -125,7 +125,7 @@ def column_layout() -> ColumnLayout:
         blocks.append((template, start, width))
         start += width
     # The payload: a change of link 7's inertial parameters, the last 10 of inertial_error's columns.
-    from .core.effects import Payload
+    from ..core.effects import Payload
 
     payload = Candidate("payload", "", "inertial", Payload(mass_kg=1.0), np.arange(inertial_start + 60, inertial_start + 70), np.full(10, free), links=(N - 1,))
     index = [c.name for c in candidates].index("inertial_error")

@@ -15,34 +15,34 @@ import importlib
 import sys
 from collections.abc import Sequence
 
-from .errors import BaxterDynamicsError
+from ..errors import BaxterDynamicsError
 
 __all__ = ["COMMANDS", "main"]
 
 #: command name -> (module implementing it, one-line help). The module is imported lazily.
 COMMANDS: dict[str, tuple[str, str]] = {
     "process": (
-        "baxter_dynamics_ros.process_command",
+        "baxter_dynamics_ros.cli.process",
         "gravity, inverse dynamics and residual for every sample of a bag or CSV file",
     ),
     "play": (
-        "baxter_dynamics_ros.play_command",
+        "baxter_dynamics_ros.cli.play",
         "publish a bag's JointState topics and /clock for a node running on use_sim_time",
     ),
     "simulate": (
-        "baxter_dynamics_ros.simulate_command",
+        "baxter_dynamics_ros.cli.simulate",
         "simulate a Baxter recording with known unmodelled effects (mcap or CSV, ground truth as JSON)",
     ),
     "diagnose": (
-        "baxter_dynamics_ros.diagnose_command",
+        "baxter_dynamics_ros.cli.diagnose",
         "where the sim-to-real gap lies, which unmodelled effect causes it, how far it shrinks (held-out)",
     ),
     "calibrate": (
-        "baxter_dynamics_ros.calibrate_command",
+        "baxter_dynamics_ros.cli.calibrate",
         "collision thresholds per joint from collision-free recordings (momentum observer), as thresholds.yaml",
     ),
     "paper-experiment": (
-        "baxter_dynamics_ros.paper_experiment",
+        "baxter_dynamics_ros.diagnosis.paper_experiment",
         "the paper's experiment (Table V, Figs. 5-7) on simulated recordings: L-E and Pinocchio RNEA against the recorded torques",
     ),
 }
@@ -77,6 +77,3 @@ def main(argv: Sequence[str] | None = None) -> int:
         print("ERROR: interrupted", file=sys.stderr)
         return 130
 
-
-if __name__ == "__main__":
-    sys.exit(main())

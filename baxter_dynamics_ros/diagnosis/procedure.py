@@ -5,17 +5,17 @@ Method:
 1. **Noise first, physics second.** The rigid-body residual r = effort − τ(q, q̇, q̈) depends on
    how q̈ is estimated. Physical effects are attributed in the *denoised* world only: q̇ low-passed
    forwards and backwards before differentiating, at the cut-off that leaves the smallest rigid
-   residual on the training data (:func:`~baxter_dynamics_ros.diagnosis_statistics.choose_cutoff`).
+   residual on the training data (:func:`~baxter_dynamics_ros.diagnosis.statistics.choose_cutoff`).
    ``acceleration_noise`` is the share of the gap that this filtering alone removes against the
    paper's first difference; it is ranked with the others by its share, but no physical effect is
    ever fitted to differentiation noise.
 2. **Candidates and statistics.** Every other effect is linear in its parameters (or, for the
    inertial ones, in the inertial parameters of whole links); each training recording is reduced to
-   sufficient statistics per contiguous block (:mod:`~baxter_dynamics_ros.diagnosis_statistics`).
-3. **Physically consistent fits** (:mod:`~baxter_dynamics_ros.diagnosis_fit`): payloads and link
+   sufficient statistics per contiguous block (:mod:`~baxter_dynamics_ros.diagnosis.statistics`).
+3. **Physically consistent fits** (:mod:`~baxter_dynamics_ros.diagnosis.fit`): payloads and link
    changes are fitted inside the physical set (log-Cholesky pseudo-inertias, bounded masses and
    centres of mass, a prior towards the paper's values), never fitted freely and then judged.
-4. **Selection that does not depend on its order** (:mod:`~baxter_dynamics_ros.diagnosis_selection`):
+4. **Selection that does not depend on its order** (:mod:`~baxter_dynamics_ros.diagnosis.selection`):
    stepwise additions with removals and swaps within families after each, per-joint effects at the
    joints where they pay, cross-validated across training recordings (leave one out; a lone
    recording: its four blocks), nothing kept whose parameters are within their uncertainty of zero.
@@ -36,8 +36,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .core.arm_model import ArmModel, pseudo_inertia
-from .core.effects import (
+from ..core.arm_model import ArmModel, pseudo_inertia
+from ..core.effects import (
     EFFECTS,
     Armature,
     CoulombFriction,
@@ -50,11 +50,13 @@ from .core.effects import (
     TorqueOffset,
     ViscousFriction,
 )
-from .core.log_cholesky import pseudo_from_log_cholesky
-from .core.recording import MIN_FIT_S, Recording, require_length
-from .diagnosis_fit import Fit, Fitter, Model, Term
-from .diagnosis_selection import MIN_JOINT_GAIN, MIN_JOINT_GAIN_NM, Evaluation, select
-from .diagnosis_statistics import (
+from ..core.log_cholesky import pseudo_from_log_cholesky
+from ..core.recording import MIN_FIT_S, Recording, require_length
+from ..errors import DiagnosisError, RecordingError
+from .fit import Fit, Fitter, Model, Term
+from .gap_analysis import GapSummary, summarise_gap
+from .selection import MIN_JOINT_GAIN, MIN_JOINT_GAIN_NM, Evaluation, select
+from .statistics import (
     Block,
     Candidate,
     ColumnLayout,
@@ -68,8 +70,6 @@ from .diagnosis_statistics import (
     recording_blocks,
     regressor,
 )
-from .errors import DiagnosisError, RecordingError
-from .gap_analysis import GapSummary, summarise_gap
 
 __all__ = ["CANDIDATE_NAMES", "STABLE_FRACTION", "DiagnosisResult", "EffectReport", "diagnose"]
 
@@ -591,7 +591,7 @@ def _gain_ok(before: np.ndarray, after: np.ndarray, n: int) -> np.ndarray:
 
 def _unselected_reports(ctx: _Context, ev: Evaluation, selected_names: set[str]) -> list[EffectReport]:
     """Every candidate not selected: what adding it (its best variant) to the selected set would do."""
-    from .diagnosis_selection import explain_unselected
+    from .selection import explain_unselected
 
     out = []
     n = ctx.pool.samples
@@ -690,7 +690,7 @@ def _test_gap(ctx: _Context, test: Sequence[tuple[str, Recording]], cutoff: floa
         finals.append(p.residual - explained)
         times.append(p.stamps_s + offset)
         offset = times[-1][-1] + 1.0 / rec.rate_hz
-        from .core.acceleration import zero_phase_acceleration
+        from ..core.acceleration import zero_phase_acceleration
 
         states.append((rec.q, rec.qd, zero_phase_acceleration(rec.qd, rec.rate_hz, min(5.0, 0.4 * rec.rate_hz))))
     cat = np.concatenate

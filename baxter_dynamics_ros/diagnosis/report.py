@@ -15,9 +15,9 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .core.effects import effects_to_dict
-from .core.output_files import staged_outputs
-from .diagnosis import STABLE_FRACTION, DiagnosisResult
+from ..core.effects import effects_to_dict
+from ..core.output_files import staged_outputs
+from .procedure import STABLE_FRACTION, DiagnosisResult
 
 __all__ = ["effects_yaml", "write_diagnosis"]
 

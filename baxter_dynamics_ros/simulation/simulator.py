@@ -54,9 +54,9 @@ from typing import Any, ClassVar, NamedTuple
 import numpy as np
 from numba import njit
 
-from .core import lagrange_euler
-from .core.arm_model import ArmModel, load_arm_model
-from .core.effects import (
+from ..core import lagrange_euler
+from ..core.arm_model import ArmModel, load_arm_model
+from ..core.effects import (
     AccelerationNoise,
     Armature,
     CoulombFriction,
@@ -72,8 +72,8 @@ from .core.effects import (
     friction_law,
     s1_spring_law,
 )
-from .core.recording import Recording
-from .errors import EffectSpecError, SimulationError
+from ..core.recording import Recording
+from ..errors import EffectSpecError, SimulationError
 from .trajectories import TRAJECTORIES, JointReference, make_reference, seed_posture
 
 __all__ = [
@@ -244,7 +244,7 @@ class Collision:
 class SimulationSpec:
     """Everything that determines a simulated recording (written beside it as JSON).
 
-    side: "right" | "left"; trajectory: one of :data:`~baxter_dynamics_ros.trajectories.TRAJECTORIES`;
+    side: "right" | "left"; trajectory: one of :data:`~baxter_dynamics_ros.simulation.trajectories.TRAJECTORIES`;
     duration_s, rate_hz: the recording; seed: noise and random trajectory; effects: the unmodelled
     effects; physics_rate_hz: RK4 rate (None: the smallest multiple of rate_hz ≥ 1 kHz);
     settle_s: unrecorded time at the start posture before t = 0; collisions: external forces or

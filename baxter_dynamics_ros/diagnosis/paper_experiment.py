@@ -1,7 +1,7 @@
 """The paper's experiment (Section IV–V, Table V, Figs. 3, 5–7) reproduced on simulated recordings.
 
 ``baxter-dynamics paper-experiment --out DIR [--page PAGE.md]`` drives the simulated right arm
-through the paper's three trajectories (:mod:`baxter_dynamics_ros.trajectories`), records at
+through the paper's three trajectories (:mod:`baxter_dynamics_ros.simulation.trajectories`), records at
 50 Hz like the paper, estimates q̈ by first differences of q̇ (dt = 0.02 s, as the paper did), and
 compares the torques of the Lagrange-Euler core and of Pinocchio's RNEA (built from the same
 parameters, :mod:`baxter_dynamics_ros.core.pinocchio_model`) with the recorded ones. It writes into DIR:
@@ -32,11 +32,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .core.acceleration import first_difference, zero_phase_acceleration
-from .core.arm_model import ArmModel, load_arm_model
-from .core.effects import S1Spring, effects_from_dict
-from .core.output_files import check_outputs, staged_outputs
-from .simulator import SensorModel, SimulationResult, SimulationSpec, simulate, write_ground_truth
+from ..core.acceleration import first_difference, zero_phase_acceleration
+from ..core.arm_model import ArmModel, load_arm_model
+from ..core.effects import S1Spring, effects_from_dict
+from ..core.output_files import check_outputs, staged_outputs
+from ..simulation.simulator import SensorModel, SimulationResult, SimulationSpec, simulate, write_ground_truth
 
 __all__ = ["EFFECTS", "PAPER_TABLE_V", "PAPER_TABLE_V_SUM", "SENSOR", "SetResult", "run_experiment"]
 
@@ -109,7 +109,7 @@ class SetResult:
 
 def run_set(arm: ArmModel, pin_model, number: int, trajectory: str, figure: int, duration_s: float, seed: int) -> SetResult:
     """Simulate one trajectory at 50 Hz and compute the paper's comparison."""
-    from .core.pinocchio_model import rnea
+    from ..core.pinocchio_model import rnea
 
     spec = SimulationSpec(
         trajectory=trajectory, duration_s=duration_s, rate_hz=RATE_HZ, seed=seed, side=arm.side, effects=EFFECTS, sensor=SENSOR
@@ -133,7 +133,7 @@ def run_set(arm: ArmModel, pin_model, number: int, trajectory: str, figure: int,
 
 def run_experiment(duration_s: float = DURATION_S, seed: int = 0, arm: ArmModel | None = None) -> list[SetResult]:
     """The three sets on the right arm (set k uses seed + k − 1)."""
-    from .core.pinocchio_model import pinocchio_from_arm
+    from ..core.pinocchio_model import pinocchio_from_arm
 
     arm = load_arm_model("right") if arm is None else arm
     pin_model = pinocchio_from_arm(arm)

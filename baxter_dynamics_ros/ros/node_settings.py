@@ -16,7 +16,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from .errors import SettingsError
+from ..errors import SettingsError
 
 __all__ = ["ESTIMATORS", "NodeSettings"]
 
