@@ -30,7 +30,7 @@ from sensor_msgs.msg import JointState
 
 from baxter_dynamics_ros.monitoring.residuals import ArmSample, HealthReport, ModelTorques, SkipReason
 
-from .serialized_joint_states import _Layout, _parse_layout, _runs
+from .serialized_joint_states import MessageLayout, parse_layout, true_runs
 
 __all__ = ["ArmJointStateWriter", "JointStateReader", "diagnostic_array"]
 
@@ -42,7 +42,7 @@ class JointStateReader:
 
     def __init__(self, joint_names: Sequence[str]) -> None:
         self.joint_names = tuple(joint_names)
-        self._layout: _Layout | None = None
+        self._layout: MessageLayout | None = None
         self._template = b""  # the message the layout was parsed from
         self._structure: list[tuple[int, int]] = []  # byte ranges every message of the layout shares
         self._index: np.ndarray | SkipReason = SkipReason.MISSING_JOINT
@@ -59,12 +59,12 @@ class JointStateReader:
     def _learn_layout(self, raw: bytes) -> bool:
         """Parse a new layout; rebuild the index map if its names differ. False if unreadable."""
         try:
-            layout = _parse_layout(raw, ros1=False, n_arrays=N_ARRAYS)
+            layout = parse_layout(raw, ros1=False, n_arrays=N_ARRAYS)
         except (ValueError, UnicodeDecodeError):
             return False
         if self._layout is None or layout.names != self._layout.names:
             self._index = self._index_map(list(layout.names))
-        self._layout, self._template, self._structure = layout, raw, _runs(layout.structure)
+        self._layout, self._template, self._structure = layout, raw, true_runs(layout.structure)
         self._stamp = struct.Struct(layout.endian + "iI")
         return True
 
@@ -103,7 +103,7 @@ class ArmJointStateWriter:
         zeros = [0.0] * len(joint_names)
         template = JointState(name=list(joint_names), position=zeros, velocity=zeros, effort=zeros)
         self._template = bytes(serialize_message(template))
-        layout = _parse_layout(self._template, ros1=False, n_arrays=N_ARRAYS)
+        layout = parse_layout(self._template, ros1=False, n_arrays=N_ARRAYS)
         self._stamp = struct.Struct(layout.endian + "iI")
         self._stamp_offset = layout.stamp_offset
         self._dtype = layout.endian + "f8"

@@ -29,8 +29,11 @@ __all__ = [
     "SEA_JOINT_STATE",
     "SEA_JOINT_STATE_MSG",
     "JointStateBlock",
+    "MessageLayout",
     "decode_joint_states",
     "encode_joint_states",
+    "parse_layout",
+    "true_runs",
     "typestore",
 ]
 
@@ -98,7 +101,7 @@ class JointStateBlock:
 
 
 @dataclass(frozen=True)
-class _Layout:
+class MessageLayout:
     """Byte layout of one serialized message: where the stamp, names and float64 arrays lie."""
 
     size: int
@@ -110,7 +113,7 @@ class _Layout:
     structure: np.ndarray  # (size,) bool: bytes every message of this layout has in common
 
 
-def _parse_layout(raw: bytes, ros1: bool, n_arrays: int) -> _Layout:
+def parse_layout(raw: bytes, ros1: bool, n_arrays: int) -> MessageLayout:
     """The layout of one message (Header, string[] name, n_arrays float64[], anything after).
 
     ROS 1: no alignment, Header = seq, secs, nsecs, frame_id. CDR: a 4-byte encapsulation header,
@@ -164,10 +167,10 @@ def _parse_layout(raw: bytes, ros1: bool, n_arrays: int) -> _Layout:
     if pos > size:
         raise ValueError("message ends early")
     structure[pos:] = False  # fields after the arrays (SEAJointState.hystState)
-    return _Layout(size, tuple(names), endian, sec_dtype, stamp_offset, tuple(arrays), structure)
+    return MessageLayout(size, tuple(names), endian, sec_dtype, stamp_offset, tuple(arrays), structure)
 
 
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+def true_runs(mask: np.ndarray) -> list[tuple[int, int]]:
     """(start, stop) of every run of True in a 1-D bool mask (slices compare faster than indices)."""
     edges = np.flatnonzero(np.diff(np.concatenate(([0], mask.astype(np.int8), [0]))))
     return list(zip(edges[::2].tolist(), edges[1::2].tolist()))
@@ -179,7 +182,7 @@ def _column(rows: np.ndarray, offset: int, dtype: str, count: int = 1) -> np.nda
     return rows[:, offset : offset + item * count].copy().view(dtype)
 
 
-def _decode_rows(rows: np.ndarray, layout: _Layout, arrays: _Arrays) -> tuple[np.ndarray, list]:
+def _decode_rows(rows: np.ndarray, layout: MessageLayout, arrays: _Arrays) -> tuple[np.ndarray, list]:
     """Stamps (n,) ns and the three arrays (n, m) or None of messages of one layout."""
     sec = _column(rows, layout.stamp_offset, layout.endian + layout.sec_dtype)[:, 0]
     nanosec = _column(rows, layout.stamp_offset + 4, layout.endian + "u4")[:, 0]
@@ -208,13 +211,13 @@ def decode_joint_states(
     for size in np.unique(sizes):
         index = np.flatnonzero(sizes == size)
         try:
-            layout = _parse_layout(raws[index[0]], ros1, arrays.count)
+            layout = parse_layout(raws[index[0]], ros1, arrays.count)
         except (ValueError, UnicodeDecodeError):
             irregular.extend(index.tolist())
             continue
         rows = np.frombuffer(b"".join([raws[i] for i in index]), dtype=np.uint8).reshape(len(index), size)
         shared = np.ones(len(index), dtype=bool)
-        for start, stop in _runs(layout.structure):
+        for start, stop in true_runs(layout.structure):
             shared &= (rows[:, start:stop] == rows[0, start:stop]).all(axis=1)
         if not shared.all():
             irregular.extend(index[~shared].tolist())
@@ -277,7 +280,7 @@ def encode_joint_states(
         **{f: np.zeros(0 if c is None else m) for f, c in zip(JOINT_ARRAYS[JOINT_STATE].fields, columns)},
     )
     template = np.frombuffer(bytes(store.serialize_cdr(template_msg, JOINT_STATE)), dtype=np.uint8)
-    layout = _parse_layout(template.tobytes(), ros1=False, n_arrays=3)
+    layout = parse_layout(template.tobytes(), ros1=False, n_arrays=3)
     rows = np.empty((n, layout.size), dtype=np.uint8)
     rows[:] = template
     sec, nanosec = np.divmod(stamps_ns, 1_000_000_000)

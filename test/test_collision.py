@@ -347,7 +347,7 @@ def test_calibrate_cli(tmp_path: Path, pushed, capsys: pytest.CaptureFixture[str
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("ERROR: ") and "none.yaml" in err[0]
     assert main(["calibrate", str(bag), "--out", str(bag)]) == 1
-    assert "refusing to write over the input" in capsys.readouterr().err and bag.exists()
+    assert "refusing to overwrite the input" in capsys.readouterr().err and bag.exists()
 
 
 

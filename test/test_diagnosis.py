@@ -24,7 +24,16 @@ from baxter_dynamics_ros.core.effects import Delay, InertialError, Payload, effe
 from baxter_dynamics_ros.diagnosis.fit import COM_BOX_M, MASS_RANGE, PAYLOAD_COM_BOX_M, PAYLOAD_MASS_KG
 from baxter_dynamics_ros.diagnosis.procedure import CANDIDATE_NAMES, diagnose
 from baxter_dynamics_ros.diagnosis.report import effects_yaml
-from baxter_dynamics_ros.diagnosis.validation import HARD, NO_OP_NM, REQUIRED_SHRINK, SCENARIOS, Scenario, _single, rigid_mse, run_scenario
+from baxter_dynamics_ros.diagnosis.validation import (
+    HARD,
+    NO_OP_NM,
+    REQUIRED_SHRINK,
+    SCENARIOS,
+    Scenario,
+    rigid_mse,
+    run_scenario,
+    single_effect,
+)
 
 REAL = Path(__file__).resolve().parent.parent.parent / "shared" / "data" / "baxter_real"
 REAL_FILES = sorted(REAL.glob("*.csv"))
@@ -176,11 +185,11 @@ def test_a_set_that_does_not_carry_over_is_said_to() -> None:
     the verdict says so per joint and in plain words at the top."""
     gripper = {"payload": {"mass_kg": 1.5, "com_m": [0.0, 0.0, 0.1]}}
     scenario = Scenario("gripper in training only", gripper, per_recording=())
-    from baxter_dynamics_ros.diagnosis.validation import _arm, _recordings
+    from baxter_dynamics_ros.diagnosis.validation import scenario_recordings
 
-    train = _recordings(scenario, scenario.train, ())
-    test = _recordings(Scenario("no gripper", {}), scenario.test, ())
-    result = diagnose(_arm(), train, test)
+    train = scenario_recordings(scenario, scenario.train, ())
+    test = scenario_recordings(Scenario("no gripper", {}), scenario.test, ())
+    result = diagnose(load_arm_model("right"), train, test)
     payload = next(e for e in result.selected() if e.name == "payload")
     assert any(v["verdict"] == "hurt" for v in payload.test_verdict.values())
     assert result.worse_joints
@@ -189,7 +198,7 @@ def test_a_set_that_does_not_carry_over_is_said_to() -> None:
 
 def test_uncertain_selection_is_marked() -> None:
     """An effect a fold would not have chosen is marked uncertain in the result and in diagnosis.json."""
-    scenario = Scenario("two recordings: weak friction", {"coulomb_friction": _single("coulomb_friction", 0.3)}, train=(("random", 11), ("paper_y", 13)))
+    scenario = Scenario("two recordings: weak friction", {"coulomb_friction": single_effect("coulomb_friction", 0.3)}, train=(("random", 11), ("paper_y", 13)))
     outcome = run_scenario(scenario)
     doc = outcome.result.to_dict()
     for e, entry in zip(outcome.result.effects, doc["effects"]):
@@ -202,9 +211,9 @@ def test_uncertain_selection_is_marked() -> None:
 def test_rigid_reference_is_the_raw_world() -> None:
     """The shrink's baseline: the rigid model with the paper's q̈ on the clean test recordings is
     what the simulator's sensor noise alone leaves (a sanity check of the judge)."""
-    from baxter_dynamics_ros.diagnosis.validation import RATE_HZ, SENSOR, TEST, _clean_test
+    from baxter_dynamics_ros.diagnosis.validation import RATE_HZ, SENSOR, TEST, clean_test_recordings
 
-    clean = _clean_test(TEST, RATE_HZ, SENSOR)
+    clean = clean_test_recordings(TEST, RATE_HZ, SENSOR)
     assert 0.0 < rigid_mse(clean) < 7 * 0.5**2
 
 

@@ -14,7 +14,7 @@ from test_recordings_io import REAL_FILES, listing_of, write_baxter_export
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.cli.main import main
 from baxter_dynamics_ros.core.acceleration import LowPassDifferentiator, first_difference, zero_phase_acceleration
-from baxter_dynamics_ros.core.recording import arm_joint_names
+from baxter_dynamics_ros.core.joints import arm_joint_names
 from msg_adapters.bag_io import RESULT_TOPICS, read_bag_recording
 from msg_adapters.csv_io import read_table_recording
 from msg_adapters.serialized_joint_states import JOINT_STATE

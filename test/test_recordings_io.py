@@ -19,7 +19,8 @@ from recorded_bags import (
     write_reference_bag,
 )
 
-from baxter_dynamics_ros.core.recording import Recording, arm_joint_names, detect_arm
+from baxter_dynamics_ros.core.joints import arm_joint_names
+from baxter_dynamics_ros.core.recording import Recording, detect_arm
 from baxter_dynamics_ros.errors import OutputError, RecordingError, RecordingFileError
 from msg_adapters.bag_io import read_bag_recording, read_joint_state_messages
 from msg_adapters.csv_io import read_table_recording

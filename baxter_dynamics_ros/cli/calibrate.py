@@ -17,7 +17,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..errors import CollisionError, RecordingError, RecordingFileError
+from ..errors import CollisionError, RecordingError
+from .paths import check_paths
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -51,29 +52,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--force", action="store_true", help="replace an existing thresholds file")
 
 
-def _check_paths(files: list[Path], out: Path, force: bool) -> None:
-    from ..core.output_files import check_outputs
-
-    for path in files:
-        if not path.exists():
-            raise RecordingFileError(f"{path}: no such file or folder")
-        if path.resolve() == out.resolve():
-            raise CollisionError(f"{out}: refusing to write over the input {path}; choose another --out")
-    if out.suffix not in (".yaml", ".yml"):
-        raise CollisionError(f"{out}: the thresholds file must end in .yaml")
-    check_outputs([out], replace=force)
-
-
 def run(args: argparse.Namespace) -> int:
     """Calibrate and write args.out; returns 0 (errors raise BaxterDynamicsError)."""
     from msg_adapters.recording_files import read_recording
 
     from ..core.arm_model import load_arm_model
     from ..core.compensation import load_compensation
+    from ..core.output_files import check_outputs
     from ..core.recording import MIN_FIT_S, require_length
     from ..monitoring.collision import calibrate, write_thresholds
 
-    _check_paths(args.files, args.out, args.force)
+    check_paths(args.files, [args.out])
+    if args.out.suffix not in (".yaml", ".yml"):
+        raise CollisionError(f"{args.out}: the thresholds file must end in .yaml")
+    check_outputs([args.out], replace=args.force)
     recordings = [read_recording(p, topic=args.topic, arm=args.arm, rate_hz=args.rate_hz) for p in args.files]
     try:
         require_length(list(zip(map(str, args.files), recordings)), "calibration", MIN_FIT_S)

@@ -28,6 +28,8 @@ from pathlib import Path
 import numpy as np
 
 from ..core.arm_model import load_arm_model
+from ..core.joints import JOINT_SUFFIXES
+from ..core.joints import JOINTS as N
 from ..ros.ros_env import isolated_ros_env
 
 EFFECTS = {
@@ -133,7 +135,7 @@ def live_node(bag: Path, effects_file: Path | None = None) -> np.ndarray:
             node_proc.kill()
     if player is not None and player.returncode != 0:
         _say(f"   play failed: {(player.stderr.read() or '').strip().splitlines()[-1:]}")
-    return np.array([m.effort for m in received]).reshape(-1, 7), [m.header.stamp for m in received]
+    return np.array([m.effort for m in received]).reshape(-1, N), [m.header.stamp for m in received]
 
 
 def show_live_residual(bag: Path) -> np.ndarray:
@@ -144,7 +146,7 @@ def show_live_residual(bag: Path) -> np.ndarray:
     first = stamps[0].sec + stamps[0].nanosec * 1e-9 if stamps else 0.0
     for effort, stamp in list(zip(residual, stamps))[::400]:
         _say(f"   t = {stamp.sec + stamp.nanosec * 1e-9 - first:6.2f} s  " + " ".join(f"{v:7.3f}" for v in effort))
-    rms = np.sqrt(np.mean(residual**2, axis=0)) if len(residual) else np.full(7, np.nan)
+    rms = np.sqrt(np.mean(residual**2, axis=0)) if len(residual) else np.full(N, np.nan)
     _say("   RMS per joint  " + " ".join(f"{v:7.3f}" for v in rms) + "  (s1: the spring the model lacks)")
     return rms
 
@@ -165,7 +167,7 @@ def process_and_plot(bag: Path, out: Path) -> Path:
     import matplotlib.pyplot as plt
 
     t = recording.stamps_s
-    fig, axes = plt.subplots(7, 1, figsize=(10, 12), sharex=True)
+    fig, axes = plt.subplots(N, 1, figsize=(10, 12), sharex=True)
     for j, ax in enumerate(axes):
         ax.plot(t, recording.effort[:, j], lw=0.7, color="0.4", label="measured effort")
         ax.plot(t, processed.inverse_dynamics[:, j], lw=0.9, color="tab:blue", label="L-E model τ")
@@ -199,8 +201,8 @@ def compensated_node(bag: Path, effects_file: Path, rigid_rms: np.ndarray) -> No
     """Step 6: the node with the identified effects compensated, on the same test bag."""
     _say(f"\n6. The node again with -p effects_file:={effects_file}")
     residual, _ = live_node(bag, effects_file)
-    rms = np.sqrt(np.mean(residual**2, axis=0)) if len(residual) else np.full(7, np.nan)
-    _say("   ~/residual RMS per joint [N·m]   " + " ".join(f"{n:>7}" for n in ("s0", "s1", "e0", "e1", "w0", "w1", "w2")))
+    rms = np.sqrt(np.mean(residual**2, axis=0)) if len(residual) else np.full(N, np.nan)
+    _say("   ~/residual RMS per joint [N·m]   " + " ".join(f"{n:>7}" for n in JOINT_SUFFIXES))
     _say("   rigid-body model                 " + " ".join(f"{v:7.3f}" for v in rigid_rms))
     _say("   with the identified effects      " + " ".join(f"{v:7.3f}" for v in rms))
 

@@ -19,7 +19,8 @@ import sys
 from collections.abc import Hashable
 from pathlib import Path
 
-from ..errors import DiagnosisError, RecordingFileError
+from ..errors import DiagnosisError
+from .paths import check_paths
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -37,30 +38,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None, help="progress bar on stderr (default: when stderr is a terminal)")
 
 
-def _check_paths(inputs: list[Path], out: Path, force: bool) -> None:
-    from ..core.output_files import check_outputs
-    from ..diagnosis.report import OUTPUT_FILES
-
-    for path in inputs:
-        if not path.exists():
-            raise RecordingFileError(f"{path}: no such file or folder")
-    targets = {(out / name).resolve() for name in OUTPUT_FILES}
-    for path in inputs:
-        if path.resolve() in targets or path.resolve() == out.resolve():
-            raise DiagnosisError(f"{out}: refusing to write over the input {path}; choose another --out")
-    check_outputs([out / name for name in OUTPUT_FILES], replace=force)
-
-
 def run(args: argparse.Namespace) -> int:
     """Diagnose and write the outputs; returns 0 (errors raise BaxterDynamicsError)."""
     from msg_adapters.recording_files import read_recording
 
     from ..core.arm_model import load_arm_model
+    from ..core.output_files import check_outputs
     from ..diagnosis.procedure import diagnose
-    from ..diagnosis.report import write_diagnosis
+    from ..diagnosis.report import OUTPUT_FILES, write_diagnosis
     from .progress import ProgressBar
 
-    _check_paths([*args.train, *args.test], args.out, args.force)
+    outputs = [args.out / name for name in OUTPUT_FILES]
+    check_paths([*args.train, *args.test], outputs)
+    check_outputs(outputs, replace=args.force)
     given = (("--train", args.train), ("--test", args.test))
     _refuse_repeats([(option, str(p), _file_id(p)) for option, paths in given for p in paths], "is the same file as")
     show = sys.stderr.isatty() if args.progress is None else args.progress

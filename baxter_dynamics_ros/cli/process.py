@@ -12,14 +12,14 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..errors import RecordingFileError
+from .paths import check_paths
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The command's options."""
     from msg_adapters.bag_io import DEFAULT_TOPIC
 
-    from ..core.processing import ACCELERATION_METHODS
+    from ..core.acceleration import ESTIMATORS
 
     parser.add_argument("input", type=Path, metavar="INPUT", help="bag (.bag, ROS 2 folder, .mcap, .db3) or table (.csv, .txt, .parquet)")
     parser.add_argument(
@@ -34,26 +34,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="sample rate of a table without a time column, Hz (default: estimated from position and velocity)",
     )
     parser.add_argument(
-        "--acceleration", choices=tuple(ACCELERATION_METHODS), default="zero_phase",
+        "--acceleration", choices=tuple(ESTIMATORS), default="zero_phase",
         help="q̈ estimator: zero_phase (offline, default), lowpass (the live node's causal filter), first_difference (the paper's)",
     )
     parser.add_argument(
         "--cutoff-hz", type=float,
         help="filter cutoff, Hz (default: "
-        + ", ".join(f"{m} {c:g}" for m, c in ACCELERATION_METHODS.items() if c is not None) + ")",
+        + ", ".join(f"{m} {e.default_cutoff_hz:g}" for m, e in ESTIMATORS.items() if e.default_cutoff_hz is not None) + ")",
     )
     parser.add_argument("--force", action="store_true", help="replace an existing output (never the input)")
     parser.add_argument(
         "--progress", action=argparse.BooleanOptionalAction, default=None,
         help="progress bar on stderr (default: when stderr is a terminal)",
     )
-
-
-def _check_paths(source: Path, out: Path) -> None:
-    """Refuse an output that is, or holds, the input: --force must never destroy it."""
-    src, dst = source.resolve(), out.resolve()
-    if src == dst or dst in src.parents:
-        raise RecordingFileError(f"{out}: refusing to overwrite the input {source}; choose another output")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -64,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
     from ..core.processing import process_recording
     from .progress import ProgressBar
 
-    _check_paths(args.input, args.out)
+    check_paths([args.input], [args.out])
     check_output(args.out, replace=args.force)  # before reading: fail fast
     show = sys.stderr.isatty() if args.progress is None else args.progress
     reading = ProgressBar("reading", show)  # writing goes in bulk, a few seconds at most: no bar

@@ -12,15 +12,49 @@ dominated its torque errors. Three estimators, all on (..., 7) arrays:
   ω_c²): −3 dB at ``cutoff_hz`` for ζ = 1/√2 (Butterworth), group delay ≈ √2 / ω_c at low
   frequency (22.5 ms at the default 10 Hz).
 - :func:`zero_phase_acceleration` — offline: Butterworth low-pass on q̇ run forwards and
-  backwards (no delay), then central differences.
+  backwards (no delay, :func:`zero_phase_lowpass`, the package's one zero-phase filter), then
+  central differences.
+
+:data:`ESTIMATORS` names them once, with their default cut-offs, for every place that offers a
+choice (``process --acceleration``, the node's ``estimator`` parameter).
 """
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
-__all__ = ["FirstDifference", "LowPassDifferentiator", "first_difference", "zero_phase_acceleration"]
+__all__ = [
+    "CAUSAL_ESTIMATORS",
+    "ESTIMATORS",
+    "Estimator",
+    "FirstDifference",
+    "LowPassDifferentiator",
+    "first_difference",
+    "zero_phase_acceleration",
+    "zero_phase_lowpass",
+]
+
+
+class Estimator(NamedTuple):
+    """What an estimator of :data:`ESTIMATORS` is: its default cut-off in Hz (None: it has no
+    filter, and takes no cut-off) and whether it is causal (usable live, sample by sample)."""
+
+    default_cutoff_hz: float | None
+    causal: bool
+
+
+#: Every q̈ estimator by name (module docstring): ``zero_phase`` (offline), ``lowpass`` and
+#: ``first_difference`` (causal; the node offers these).
+ESTIMATORS: dict[str, Estimator] = {
+    "zero_phase": Estimator(5.0, causal=False),
+    "lowpass": Estimator(10.0, causal=True),
+    "first_difference": Estimator(None, causal=True),
+}
+#: The causal ones, in that order: what the live node offers.
+CAUSAL_ESTIMATORS = tuple(name for name, e in ESTIMATORS.items() if e.causal)
 
 
 def first_difference(qd: np.ndarray, stamps_s: np.ndarray) -> np.ndarray:
@@ -125,26 +159,40 @@ def _lowpass_step(x, xd, u_previous, u, wc, damping, dt_s):
         u_previous[j] = u[j]
 
 
+def zero_phase_lowpass(x: np.ndarray, rate_hz: float, cutoff_hz: float, order: int = 2) -> np.ndarray:
+    """x (N, k) low-passed forwards and backwards: zero phase, −6 dB at cutoff_hz, x sampled at rate_hz.
+
+    A Butterworth filter of ``order`` in second-order sections (``scipy.signal.sosfiltfilt``), the
+    ends padded by odd reflection over scipy's default length, 3 · (2 · sections + 1) samples (9 for
+    order 2), or N − 1 samples when the series is shorter. cutoff_hz must lie in (0, rate_hz / 2).
+    """
+    from scipy.signal import butter, sosfiltfilt
+
+    x = np.asarray(x, dtype=float)
+    if not (np.isfinite(rate_hz) and rate_hz > 0):
+        raise ValueError(f"rate_hz must be positive and finite, got {rate_hz}")
+    if not (0 < cutoff_hz < rate_hz / 2):
+        raise ValueError(f"cutoff_hz must lie in (0, {rate_hz / 2}) Hz, got {cutoff_hz}")
+    if len(x) < 2:
+        return x.copy()
+    sos = butter(order, cutoff_hz, fs=rate_hz, output="sos")
+    padlen = min(3 * (2 * len(sos) + 1), len(x) - 1)
+    return sosfiltfilt(sos, x, axis=0, padlen=padlen)
+
+
 def zero_phase_acceleration(
     qd: np.ndarray, rate_hz: float, cutoff_hz: float | None = 5.0, order: int = 2
 ) -> np.ndarray:
     """Offline q̈ (N, 7) rad/s² from q̇ (N, 7) rad/s sampled at rate_hz.
 
-    q̇ is low-passed forwards and backwards (Butterworth of ``order``, −6 dB at ``cutoff_hz``,
-    zero phase), then differentiated by central differences. ``cutoff_hz=None`` skips the filter.
+    q̇ is low-passed forwards and backwards (:func:`zero_phase_lowpass`: Butterworth of ``order``,
+    −6 dB at ``cutoff_hz``, zero phase), then differentiated by central differences.
+    ``cutoff_hz=None`` skips the filter.
     """
-    from scipy.signal import butter, sosfiltfilt
-
     qd = np.asarray(qd, dtype=float)
     if not (np.isfinite(rate_hz) and rate_hz > 0):
         raise ValueError(f"rate_hz must be positive and finite, got {rate_hz}")
     if len(qd) < 2:
         return np.zeros_like(qd)
-    smooth = qd
-    if cutoff_hz is not None:
-        if not (0 < cutoff_hz < rate_hz / 2):
-            raise ValueError(f"cutoff_hz must lie in (0, {rate_hz / 2}) Hz, got {cutoff_hz}")
-        sos = butter(order, cutoff_hz, fs=rate_hz, output="sos")
-        padlen = min(3 * (2 * len(sos) + 1), len(qd) - 1)
-        smooth = sosfiltfilt(sos, qd, axis=0, padlen=padlen)
+    smooth = qd if cutoff_hz is None else zero_phase_lowpass(qd, rate_hz, cutoff_hz, order)
     return np.gradient(smooth, 1.0 / rate_hz, axis=0)

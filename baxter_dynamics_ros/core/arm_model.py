@@ -17,6 +17,7 @@ import numpy as np
 
 from ..errors import ModelFileError
 from . import lagrange_euler
+from .joints import JOINTS as N_JOINTS
 from .yaml_files import read_yaml
 
 __all__ = [
@@ -29,7 +30,6 @@ __all__ = [
     "pseudo_inertia",
 ]
 
-N_JOINTS = 7
 PACKAGE = "baxter_dynamics_ros"
 
 

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..errors import EffectSpecError
 from .arm_model import ArmModel
-from .effects import Effect, _InertialChange, effects_from_dict, read_spec_file
+from .effects import Effect, InertialChange, effects_from_dict, read_spec_file
 
 __all__ = ["NOT_COMPENSATED", "Compensation", "load_compensation"]
 
@@ -35,11 +35,11 @@ class Compensation:
 
     def __init__(self, arm: ArmModel, effects: tuple[Effect, ...]) -> None:
         for effect in effects:
-            if isinstance(effect, _InertialChange):
+            if isinstance(effect, InertialChange):
                 arm = effect.apply_to(arm)
         self.arm = arm
         self.effects = tuple(effects)
-        self.additive = tuple(e for e in effects if not isinstance(e, _InertialChange) and e.name not in NOT_COMPENSATED)
+        self.additive = tuple(e for e in effects if not isinstance(e, InertialChange) and e.name not in NOT_COMPENSATED)
         self.ignored = tuple(e.name for e in effects if e.name in NOT_COMPENSATED)
 
     def torque(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:

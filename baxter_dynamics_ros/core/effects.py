@@ -47,7 +47,8 @@ from ..errors import EffectSpecError
 from . import lagrange_euler
 from .acceleration import zero_phase_acceleration
 from .arm_model import ArmModel, LinkInertial, link_from_parameters, link_parameters
-from .recording import JOINT_SUFFIXES
+from .joints import JOINT_SUFFIXES, S1
+from .joints import JOINTS as N
 from .yaml_files import read_yaml
 
 __all__ = [
@@ -58,6 +59,7 @@ __all__ = [
     "CoulombFriction",
     "Delay",
     "Effect",
+    "InertialChange",
     "InertialError",
     "Payload",
     "S1Spring",
@@ -73,8 +75,6 @@ __all__ = [
     "total_torque",
 ]
 
-N = 7
-S1 = 1  # index of joint s1 in the arm's joint order
 
 #: Names of a link's 10 inertial parameters, in the order of the core's
 #: :func:`~baxter_dynamics_ros.core.arm_model.link_parameters` and ``ArmModel.inertial_regressor``: mass
@@ -147,7 +147,7 @@ def _normalise(value: Any, meta: Mapping[str, Any], where: str) -> float | np.nd
 
 def _batch(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> tuple[list[np.ndarray], tuple[int, ...]]:
     """(…, 7) q, q̇, q̈ as (M, 7) arrays and the leading shape (the core's shape check)."""
-    return lagrange_euler._as_batches(q=q, qd=qd, qdd=qdd)
+    return lagrange_euler.as_batches(q=q, qd=qd, qdd=qdd)
 
 
 def _series(stamps_s: np.ndarray | None, values: np.ndarray, effect: str) -> np.ndarray:
@@ -394,7 +394,7 @@ class S1Spring(Effect):
         return ("preload_nm", "cosine_nm", "sine_nm")
 
 
-class _InertialChange:
+class InertialChange:
     """Mixin of the effects that change link inertials: torque through the core from ΔJ."""
 
     def apply_to(self, arm: ArmModel) -> ArmModel:
@@ -411,7 +411,7 @@ class _InertialChange:
 
 
 @dataclass(frozen=True, eq=False)
-class Payload(_InertialChange, Effect):
+class Payload(InertialChange, Effect):
     """A load held in the hand, rigidly fixed to the flange (DH frame 7).
 
     mass_kg; com_m (3,) its centre of mass in the flange frame (z along the w2 axis, away from
@@ -464,7 +464,7 @@ class Payload(_InertialChange, Effect):
 
 
 @dataclass(frozen=True, eq=False)
-class InertialError(_InertialChange, Effect):
+class InertialError(InertialChange, Effect):
     """Errors of the model's link inertials: each link's mass × mass_scale (7,) and centre of
     mass × com_scale (7,) (componentwise, in its DH frame); the inertia tensor about the centre of
     mass scales with the mass. Scales default to 1 (no error). Then parameter_change (70,), the

@@ -40,8 +40,10 @@ import numpy as np
 from numba import njit, prange
 
 from ..errors import InputShapeError
+from .joints import JOINTS as N
 
 __all__ = [
+    "as_batches",
     "batch_forward_dynamics",
     "batch_gravity",
     "batch_inertial_regressor",
@@ -62,7 +64,6 @@ __all__ = [
     "momentum_terms",
 ]
 
-N = 7
 LANES = 16
 """Samples per block. A block's intermediates live in one flat scratch array, LANES values per
 quantity (lane-major), so that every innermost loop runs over samples at fixed offsets of one
@@ -761,8 +762,9 @@ def _as_batch(name: str, x: np.ndarray) -> tuple[np.ndarray, tuple[int, ...]]:
     return np.ascontiguousarray(arr.reshape(-1, N)), lead
 
 
-def _as_batches(**arrays: np.ndarray) -> tuple[list[np.ndarray], tuple[int, ...]]:
-    """Several (..., 7) arrays that must share one leading shape."""
+def as_batches(**arrays: np.ndarray) -> tuple[list[np.ndarray], tuple[int, ...]]:
+    """Several (..., 7) arrays that must share one leading shape, as (M, 7) C-contiguous float64
+    arrays and that leading shape (the fronts' one shape check; raises InputShapeError)."""
     out, leads = [], {}
     for name, x in arrays.items():
         flat, lead = _as_batch(name, x)
@@ -776,7 +778,7 @@ def _as_batches(**arrays: np.ndarray) -> tuple[list[np.ndarray], tuple[int, ...]
 
 def inverse_dynamics(dh, pseudo_inertias, gravity_m_s2, q, qd, qdd) -> np.ndarray:
     """τ = M q̈ + C + G (eq. 5), N·m, shape of q; q, qd, qdd (..., 7) in rad, rad/s, rad/s²."""
-    (q2, qd2, qdd2), lead = _as_batches(q=q, qd=qd, qdd=qdd)
+    (q2, qd2, qdd2), lead = as_batches(q=q, qd=qd, qdd=qdd)
     out = np.empty_like(q2)
     split = len(q2) >= PARALLEL_MIN_SAMPLES
     (_inverse_dynamics_parallel if split else batch_inverse_dynamics)(
@@ -787,7 +789,7 @@ def inverse_dynamics(dh, pseudo_inertias, gravity_m_s2, q, qd, qdd) -> np.ndarra
 
 def coriolis(dh, pseudo_inertias, q, qd) -> np.ndarray:
     """The Coriolis/centrifugal vector C(q, q̇) of eq. (7), N·m, shape of q."""
-    (q2, qd2), lead = _as_batches(q=q, qd=qd)
+    (q2, qd2), lead = as_batches(q=q, qd=qd)
     out = np.empty_like(q2)
     split = len(q2) >= PARALLEL_MIN_SAMPLES
     (_inverse_dynamics_parallel if split else batch_inverse_dynamics)(
@@ -814,7 +816,7 @@ def mass_matrix(dh, pseudo_inertias, q) -> np.ndarray:
 
 def forward_dynamics(dh, pseudo_inertias, gravity_m_s2, q, qd, tau) -> np.ndarray:
     """q̈ = M⁻¹(τ − C − G), rad/s², shape of q; q, qd, tau (..., 7) in rad, rad/s, N·m."""
-    (q2, qd2, tau2), lead = _as_batches(q=q, qd=qd, tau=tau)
+    (q2, qd2, tau2), lead = as_batches(q=q, qd=qd, tau=tau)
     out = np.empty_like(q2)
     batch_forward_dynamics(dh, pseudo_inertias, gravity_m_s2, q2, qd2, tau2, out)
     return out.reshape(lead + (N,))
@@ -826,7 +828,7 @@ def inertial_regressor(dh, gravity_m_s2, q, qd, qdd) -> np.ndarray:
     π stacks, link by link, the 10 parameters of :func:`inertial_basis` (kg, kg·m, kg·m²) in each
     link's DH frame; gravity included. q, qd, qdd (..., 7) in rad, rad/s, rad/s².
     """
-    (q2, qd2, qdd2), lead = _as_batches(q=q, qd=qd, qdd=qdd)
+    (q2, qd2, qdd2), lead = as_batches(q=q, qd=qd, qdd=qdd)
     out = np.empty((q2.shape[0], N, 10 * N))
     batch_inertial_regressor(dh, inertial_basis(), gravity_m_s2, q2, qd2, qdd2, out)
     return out.reshape(lead + (N, 10 * N))
@@ -838,7 +840,7 @@ def momentum_terms(dh, pseudo_inertias, gravity_m_s2, q, qd, eps: float) -> tupl
     Ṁ is the central difference (M(q + ε q̇) − M(q − ε q̇)) / 2ε, exact to O(ε²); since
     Cᵀ q̇ = Ṁ q̇ − C q̇, the second output is Cᵀ q̇ − G, what a momentum observer integrates.
     """
-    (q2, qd2), lead = _as_batches(q=q, qd=qd)
+    (q2, qd2), lead = as_batches(q=q, qd=qd)
     p = np.empty_like(q2)
     w = np.empty_like(q2)
     batch_momentum_terms(dh, pseudo_inertias, gravity_m_s2, q2, qd2, float(eps), p, w)

@@ -17,14 +17,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import RecordingError
-from .acceleration import LowPassDifferentiator, first_difference, zero_phase_acceleration
+from .acceleration import ESTIMATORS, LowPassDifferentiator, first_difference, zero_phase_acceleration
 from .arm_model import ArmModel
 from .recording import Recording
 
-__all__ = ["ACCELERATION_METHODS", "ProcessedRecording", "estimate_acceleration", "process_recording"]
-
-#: Estimator name -> its default cutoff in Hz (None: the estimator has no filter).
-ACCELERATION_METHODS: dict[str, float | None] = {"zero_phase": 5.0, "lowpass": 10.0, "first_difference": None}
+__all__ = ["ProcessedRecording", "estimate_acceleration", "process_recording"]
 
 
 @dataclass(frozen=True)
@@ -50,16 +47,16 @@ def estimate_acceleration(recording: Recording, method: str = "zero_phase", cuto
     """q̈ (N, 7) rad/s² of a recording by ``method`` (see the module docstring).
 
     cutoff_hz: the filter's cutoff in Hz; None takes the method's default from
-    :data:`ACCELERATION_METHODS`. first_difference has no filter and accepts no cutoff.
+    :data:`~.acceleration.ESTIMATORS`. first_difference has no filter and accepts no cutoff.
     """
-    if method not in ACCELERATION_METHODS:
-        raise RecordingError(f"acceleration method must be one of {', '.join(ACCELERATION_METHODS)}, got {method!r}")
+    if method not in ESTIMATORS:
+        raise RecordingError(f"acceleration method must be one of {', '.join(ESTIMATORS)}, got {method!r}")
     if method == "first_difference":
         if cutoff_hz is not None:
             raise RecordingError("first_difference has no filter: leave the cutoff unset")
         return first_difference(recording.qd, recording.stamps_s)
     if cutoff_hz is None:
-        cutoff_hz = ACCELERATION_METHODS[method]
+        cutoff_hz = ESTIMATORS[method].default_cutoff_hz
     try:
         if method == "zero_phase":
             return zero_phase_acceleration(recording.qd, recording.rate_hz, cutoff_hz)

@@ -13,27 +13,21 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import RecordingError
+from .joints import ARM_SIDES, JOINTS, arm_joint_names
 
 __all__ = [
-    "ARM_SIDES",
-    "JOINT_SUFFIXES",
     "MIN_MOTION_RAD",
     "MIN_FIT_S",
     "MIN_RECORDING_S",
     "MIN_RECORDING_SAMPLES",
     "OtherArm",
     "Recording",
-    "arm_joint_names",
     "detect_arm",
     "estimate_rate_hz",
     "require_activity",
     "require_length",
 ]
 
-#: The arms, by the prefix of their joint names.
-ARM_SIDES = ("right", "left")
-#: Joint order of the model (shoulder s0 s1, elbow e0 e1, wrist w0 w1 w2), as in config/*.yaml.
-JOINT_SUFFIXES = ("s0", "s1", "e0", "e1", "w0", "w1", "w2")
 #: An arm moves in a recording when one of its joint angles spans at least this much, rad (0.57°:
 #: 26 steps of Baxter's 2π/16384 rad encoders; an arm at rest stays within a few steps).
 MIN_MOTION_RAD = 0.01
@@ -47,13 +41,6 @@ MIN_RECORDING_S = 2.0
 MIN_RECORDING_SAMPLES = 200
 #: The least data a fit takes in all (the diagnosis' training recordings, a calibration's), s.
 MIN_FIT_S = 10.0
-
-
-def arm_joint_names(side: str) -> tuple[str, ...]:
-    """The 7 joint names of ``side`` ("right" or "left") in model order, e.g. ``right_s0``."""
-    if side not in ARM_SIDES:
-        raise RecordingError(f"arm must be 'right' or 'left', got {side!r}")
-    return tuple(f"{side}_{suffix}" for suffix in JOINT_SUFFIXES)
 
 
 def detect_arm(names: Sequence[str], q_range_rad: dict[str, float] | None = None) -> str:
@@ -199,8 +186,8 @@ class Recording:
         object.__setattr__(self, "stamps_ns", stamps)
         for field_name in ("q", "qd", "effort"):
             arr = np.array(getattr(self, field_name), dtype=np.float64)
-            if arr.shape != (n, 7):
-                raise RecordingError(f"{field_name} must be ({n}, 7) like stamps_ns, got {arr.shape}")
+            if arr.shape != (n, JOINTS):
+                raise RecordingError(f"{field_name} must be ({n}, {JOINTS}) like stamps_ns, got {arr.shape}")
             bad = ~np.isfinite(arr)
             if bad.any():
                 k, j = (int(i) for i in np.argwhere(bad)[0])

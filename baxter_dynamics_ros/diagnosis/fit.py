@@ -38,9 +38,11 @@ import numpy as np
 from scipy.optimize import lsq_linear
 
 from ..core.arm_model import ArmModel, pseudo_inertia
+from ..core.joints import JOINTS as N
+from ..core.joints import S1
 from ..core.log_cholesky import contraction_hessian, log_cholesky_from_pseudo, parameters_from_log_cholesky
 from ..errors import DiagnosisError
-from .statistics import S1, Candidate, ColumnLayout, N, Pool
+from .statistics import Candidate, ColumnLayout, Pool
 
 __all__ = ["DECORRELATION_S", "Fit", "Fitter", "Model", "Term"]
 

@@ -9,9 +9,10 @@ Regimes, per joint j (thresholds are keyword options with these defaults):
 - ``speed``: |q̇_j| bands (``speed_edges_rad_s``); ``acceleration``: |q̈_j| bands;
 - ``angle``: bins of q_j and of q_s1 (the joint whose spring dominates Baxter's gap), each cut
   into ``angle_bins`` equal-count bins so every bin holds data.
-Frequency content: the residual is split by a zero-phase low-pass at ``systematic_cutoff_hz``
-(2 Hz) into a systematic part (what a model of the robot's physics could explain) and the rest
-(sensor noise and noisy differentiated accelerations).
+Frequency content: the residual is split by the core's zero-phase low-pass
+(:func:`~baxter_dynamics_ros.core.acceleration.zero_phase_lowpass`, order 2) at
+``systematic_cutoff_hz`` (2 Hz) into a systematic part (what a model of the robot's physics could
+explain) and the rest (sensor noise and noisy differentiated accelerations).
 """
 
 from __future__ import annotations
@@ -20,9 +21,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.acceleration import zero_phase_lowpass
+from ..core.joints import S1
+
 __all__ = ["Band", "GapSummary", "summarise_gap"]
 
-S1 = 1  # index of joint s1 in the arm's joint order
 
 
 @dataclass(frozen=True)
@@ -117,8 +120,6 @@ def summarise_gap(
     systematic_cutoff_hz: float = 2.0,
 ) -> GapSummary:
     """Statistics of residual (N, 7) N·m at states q, qd, qdd (N, 7) sampled at rate_hz."""
-    from scipy.signal import butter, sosfiltfilt
-
     residual = np.asarray(residual, dtype=float)
     n = len(residual)
     if n < 16:
@@ -127,8 +128,7 @@ def summarise_gap(
     _, rms, mean = _masked_stats(residual, everywhere)
     share = rms**2 / max(float(np.sum(rms**2)), 1e-300)
 
-    sos = butter(2, systematic_cutoff_hz, fs=rate_hz, output="sos")
-    systematic = sosfiltfilt(sos, residual, axis=0, padlen=min(15, n - 1))
+    systematic = zero_phase_lowpass(residual, rate_hz, systematic_cutoff_hz)
     noise_rms = np.sqrt(np.mean((residual - systematic) ** 2, axis=0))
     systematic_rms = np.sqrt(np.mean(systematic**2, axis=0))
 

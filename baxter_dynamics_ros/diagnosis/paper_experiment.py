@@ -35,6 +35,8 @@ import numpy as np
 from ..core.acceleration import first_difference, zero_phase_acceleration
 from ..core.arm_model import ArmModel, load_arm_model
 from ..core.effects import S1Spring, effects_from_dict
+from ..core.joints import JOINT_SUFFIXES
+from ..core.joints import JOINTS as N
 from ..core.output_files import check_outputs, staged_outputs
 from ..simulation.simulator import SensorModel, SimulationResult, SimulationSpec, simulate, write_ground_truth
 
@@ -154,11 +156,11 @@ def table_v_markdown(sets: list[SetResult]) -> str:
     head = "| Joint | " + " | ".join(f"Set {s.number} L-E | Set {s.number} RN-E" for s in sets) + " |"
     rule = "|---|" + "---:|" * (2 * len(sets))
     lines = ["**Measured here** — |ē_i| = |mean of (recorded − model)|, N·m:", "", head, rule]
-    for j in range(7):
+    for j in range(N):
         lines.append(_row(f"\\|ē_{j + 1}\\|", [v for st in stats for v in (st["abs_mean_error_le"][j], st["abs_mean_error_rne"][j])]))
     lines.append(_row("Σ", [v for st in stats for v in (sum(st["abs_mean_error_le"]), sum(st["abs_mean_error_rne"]))]))
     lines += ["", "**The paper's Table V**, for comparison (N·m):", "", head, rule]
-    for j in range(7):
+    for j in range(N):
         lines.append(_row(f"\\|ē_{j + 1}\\|", PAPER_TABLE_V[j].reshape(-1)))
     lines.append(_row("Σ (as printed)", PAPER_TABLE_V_SUM.reshape(-1)))
     spread_head = "| Joint | " + " | ".join(f"Set {s.number} mean \\|e\\| | Set {s.number} RMS | Set {s.number} RMS, 5 Hz" for s in sets) + " |"
@@ -170,7 +172,7 @@ def table_v_markdown(sets: list[SetResult]) -> str:
         spread_head,
         "|---|" + "---:|" * (3 * len(sets)),
     ]
-    for j in range(7):
+    for j in range(N):
         values = [v for st in stats for v in (st["mean_abs_error_le"][j], st["rms_error_le"][j], st["rms_error_le_filtered"][j])]
         lines.append(_row(f"joint {j + 1}", values))
     return "\n".join(lines) + "\n"
@@ -213,8 +215,8 @@ def plot_torques(s: SetResult, path: Path) -> None:
     t = (s.simulation.stamps_ns - s.simulation.stamps_ns[0]) * 1e-9
     k = t <= PLOT_WINDOW_S
     t = t[k]
-    fig, axes = plt.subplots(7, 2, figsize=(11, 13), sharex=True)
-    for j in range(7):
+    fig, axes = plt.subplots(N, 2, figsize=(11, 13), sharex=True)
+    for j in range(N):
         left, right = axes[j]
         left.plot(t, s.tau_le[k, j], lw=0.6, label="L-E")
         left.plot(t, s.tau_rne[k, j], lw=0.6, ls="--", label="RN-E (Pinocchio)")
@@ -303,7 +305,7 @@ L-E and RN-E agree to {le_rne:.1e} N·m on every sample (same parameters, two al
   `../shared/data/baxter_real` sit, mirrored), the hand pointing down (Fig. 4), a 1 s ramp from
   rest, and the y-switching period and the z motion of sets 2–3 are this project's choices. With
   the hand kept pointing down, the y switching is done mostly by s0 and w2 here (ranges in set 2:
-  {", ".join(f"{n} {v:.2f}" for n, v in zip(("s0", "s1", "e0", "e1", "w0", "w1", "w2"), y_range))} rad),
+  {", ".join(f"{n} {v:.2f}" for n, v in zip(JOINT_SUFFIXES, y_range))} rad),
   where the paper saw mostly joint 2 (s1): its posture was evidently different.
 - **Duration and noise.** The paper does not say how long each set ran nor how noisy its
   sensors were; the noise levels here come from the real recordings, so the absolute error

@@ -50,6 +50,7 @@ from ..core.effects import (
     TorqueOffset,
     ViscousFriction,
 )
+from ..core.joints import JOINTS as N
 from ..core.log_cholesky import pseudo_from_log_cholesky
 from ..core.recording import MIN_FIT_S, Recording, require_length
 from ..errors import DiagnosisError, RecordingError
@@ -60,7 +61,6 @@ from .statistics import (
     Block,
     Candidate,
     ColumnLayout,
-    N,
     Pool,
     active_columns,
     choose_cutoff,

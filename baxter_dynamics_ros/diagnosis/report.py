@@ -16,6 +16,7 @@ import numpy as np
 import yaml
 
 from ..core.effects import effects_to_dict
+from ..core.joints import JOINTS as N
 from ..core.output_files import staged_outputs
 from .procedure import STABLE_FRACTION, DiagnosisResult
 
@@ -37,7 +38,7 @@ def _plot_residuals(result: DiagnosisResult, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     s = result.test_series
-    fig, axes = plt.subplots(7, 1, figsize=(11, 13), sharex=True)
+    fig, axes = plt.subplots(N, 1, figsize=(11, 13), sharex=True)
     for j, ax in enumerate(axes):
         ax.plot(s["t_s"], s["baseline"][:, j], lw=0.6, color="0.6", label="rigid model, raw q̈")
         ax.plot(s["t_s"], s["filtered"][:, j], lw=0.8, color="tab:blue", label="rigid model, filtered q̈")

@@ -38,8 +38,10 @@ import numpy as np
 from scipy.stats import chi2
 
 from ..core.arm_model import ArmModel
+from ..core.joints import JOINTS as N
+from ..core.joints import S1
 from .fit import DECORRELATION_S, Fit, Fitter, Model, Term
-from .statistics import S1, ColumnLayout, N, Pool
+from .statistics import ColumnLayout, Pool
 
 __all__ = ["Evaluation", "Selection", "select"]
 

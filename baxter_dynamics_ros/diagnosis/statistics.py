@@ -33,7 +33,8 @@ from ..core.effects import (
     TorqueOffset,
     ViscousFriction,
 )
-from ..core.recording import JOINT_SUFFIXES, Recording
+from ..core.joints import JOINTS as N
+from ..core.recording import Recording
 
 __all__ = [
     "Block",
@@ -47,8 +48,6 @@ __all__ = [
     "recording_blocks",
 ]
 
-N = len(JOINT_SUFFIXES)
-S1 = 1  # index of joint s1
 #: Cut-offs (Hz) tried for the denoised world's zero-phase low-pass on q̇.
 CUTOFF_GRID_HZ = (1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0)
 #: Regressor rows evaluated at once (bounds the memory of the statistics pass).

@@ -85,7 +85,7 @@ def _joint(values: list[float], scale: float) -> list[float]:
     return [scale * v for v in values]
 
 
-def _single(name: str, scale: float) -> dict[str, Any]:
+def single_effect(name: str, scale: float) -> dict[str, Any]:
     """One effect at magnitude ``scale`` (1 = about what a real Baxter shows, 3 = three times)."""
     if name == "torque_offset":
         return {"offset_nm": _joint([0.4, 1.0, 0.5, 0.5, 0.2, 0.2, 0.1], scale)}
@@ -142,11 +142,11 @@ HARD: tuple[Scenario, ...] = (
     Scenario("e0 mass +25 %", {"inertial_error": {"mass_scale": {"e0": 1.25}}}),
     Scenario("e1 mass +40 %", {"inertial_error": {"mass_scale": {"e1": 1.4}}}),
     Scenario("w0 mass +30 %", {"inertial_error": {"mass_scale": {"w0": 1.3}}}),
-    Scenario("two training recordings: Coulomb friction", {"coulomb_friction": _single("coulomb_friction", 1.0)}, train=TRAIN[:2]),
-    Scenario("500 Hz, two training recordings: viscous friction", {"viscous_friction": _single("viscous_friction", 1.0)}, train=TRAIN[:2], rate_hz=500.0),
+    Scenario("two training recordings: Coulomb friction", {"coulomb_friction": single_effect("coulomb_friction", 1.0)}, train=TRAIN[:2]),
+    Scenario("500 Hz, two training recordings: viscous friction", {"viscous_friction": single_effect("viscous_friction", 1.0)}, train=TRAIN[:2], rate_hz=500.0),
     Scenario(
         "training random motion, test the paper's trajectories: Stribeck friction",
-        {"stribeck_friction": _single("stribeck_friction", 1.0)},
+        {"stribeck_friction": single_effect("stribeck_friction", 1.0)},
         train=(("random", 11), ("random", 12), ("random", 13)),
         test=(("paper_xyz", 22), ("paper_z", 23)),
     ),
@@ -160,8 +160,8 @@ HARD: tuple[Scenario, ...] = (
 )
 
 SCENARIOS: tuple[Scenario, ...] = (
-    tuple(Scenario(f"{name} ({mag})", {name: _single(name, scale)}) for name in SINGLE_NAMES for mag, scale in MAGNITUDES.items())
-    + tuple(Scenario(f"{a} + {b} ({mag})", {a: _single(a, scale), b: _single(b, scale)}) for a, b in PAIRS for mag, scale in MAGNITUDES.items())
+    tuple(Scenario(f"{name} ({mag})", {name: single_effect(name, scale)}) for name in SINGLE_NAMES for mag, scale in MAGNITUDES.items())
+    + tuple(Scenario(f"{a} + {b} ({mag})", {a: single_effect(a, scale), b: single_effect(b, scale)}) for a, b in PAIRS for mag, scale in MAGNITUDES.items())
     + HARD
 )
 
@@ -208,7 +208,7 @@ def _arm() -> ArmModel:
     return load_arm_model("right")
 
 
-def _recordings(scenario: Scenario, runs: tuple[tuple[str, int], ...], extra: tuple[dict[str, Any], ...], with_effects: bool = True) -> list[tuple[str, Recording]]:
+def scenario_recordings(scenario: Scenario, runs: tuple[tuple[str, int], ...], extra: tuple[dict[str, Any], ...], with_effects: bool = True) -> list[tuple[str, Recording]]:
     arm = _arm()
     out = []
     for k, (trajectory, seed) in enumerate(runs):
@@ -224,8 +224,8 @@ def _recordings(scenario: Scenario, runs: tuple[tuple[str, int], ...], extra: tu
 
 
 @lru_cache(maxsize=8)
-def _clean_test(runs: tuple[tuple[str, int], ...], rate_hz: float, sensor: SensorModel) -> tuple[tuple[str, Recording], ...]:
-    return tuple(_recordings(Scenario("clean", {}, test=runs, rate_hz=rate_hz, sensor=sensor), runs, (), with_effects=False))
+def clean_test_recordings(runs: tuple[tuple[str, int], ...], rate_hz: float, sensor: SensorModel) -> tuple[tuple[str, Recording], ...]:
+    return tuple(scenario_recordings(Scenario("clean", {}, test=runs, rate_hz=rate_hz, sensor=sensor), runs, (), with_effects=False))
 
 
 def rigid_mse(recordings) -> float:
@@ -244,13 +244,13 @@ def rigid_mse(recordings) -> float:
 def run_scenario(scenario: Scenario) -> ScenarioOutcome:
     """Simulate the scenario, diagnose it blind, and compare with what was injected."""
     n_train = len(scenario.train)
-    train = _recordings(scenario, scenario.train, scenario.per_recording[:n_train])
-    test = _recordings(scenario, scenario.test, scenario.per_recording[n_train:])
+    train = scenario_recordings(scenario, scenario.train, scenario.per_recording[:n_train])
+    test = scenario_recordings(scenario, scenario.test, scenario.per_recording[n_train:])
     result = diagnose(_arm(), train, test)
     mse_final = float(np.sum(result.final_test_rms**2))
     ranking = tuple(e.name for e in result.effects)
     selected = tuple(e.name for e in result.effects if e.selected)
-    clean = _clean_test(scenario.test, scenario.rate_hz, scenario.sensor)
+    clean = clean_test_recordings(scenario.test, scenario.rate_hz, scenario.sensor)
     return ScenarioOutcome(scenario, ranking, selected, rigid_mse(clean), rigid_mse(test), mse_final, result, tuple(train), tuple(test))
 
 

@@ -76,8 +76,10 @@ from numba import njit
 from ..core import lagrange_euler
 from ..core.arm_model import ArmModel
 from ..core.compensation import Compensation
+from ..core.joints import JOINT_SUFFIXES
+from ..core.joints import JOINTS as N
 from ..core.output_files import staged_outputs
-from ..core.recording import JOINT_SUFFIXES, Recording
+from ..core.recording import Recording
 from ..core.yaml_files import read_yaml
 from ..errors import CollisionError
 
@@ -108,7 +110,6 @@ __all__ = [
     "write_thresholds",
 ]
 
-N = 7
 #: Default observer gain K_O, 1/s (time constant 50 ms).
 DEFAULT_GAIN_1_S = 20.0
 #: Samples in a row above a threshold before the detector turns on.

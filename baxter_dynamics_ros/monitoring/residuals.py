@@ -59,11 +59,11 @@ import numpy as np
 from numba import njit
 
 from ..core import lagrange_euler
-from ..core.acceleration import FirstDifference, LowPassDifferentiator
+from ..core.acceleration import CAUSAL_ESTIMATORS, FirstDifference, LowPassDifferentiator
 from ..core.arm_model import ArmModel
 from ..core.compensation import Compensation
+from ..core.joints import JOINTS as N
 from ..errors import CollisionError, SettingsError
-from ..ros.node_settings import ESTIMATORS
 from .collision import DEFAULT_GAIN_1_S, MomentumObserver
 
 __all__ = [
@@ -159,8 +159,8 @@ class ModelTorques(NamedTuple):
 
 def make_estimator(name: str, cutoff_hz: float) -> LowPassDifferentiator | FirstDifference:
     """The causal q̈ estimator called ``name`` (``lowpass`` at cutoff_hz, or ``first_difference``)."""
-    if name not in ESTIMATORS:
-        raise SettingsError(f"estimator: expected one of {', '.join(ESTIMATORS)}, got {name!r}")
+    if name not in CAUSAL_ESTIMATORS:
+        raise SettingsError(f"estimator: expected one of {', '.join(CAUSAL_ESTIMATORS)}, got {name!r}")
     if name == "first_difference":
         return FirstDifference()
     try:
@@ -229,15 +229,15 @@ class ResidualPipeline:
         self._effort_max = PLAUSIBLE_FACTOR * self.arm.effort_limit_nm
         self._effort_min = -self._effort_max
         # One batch of two rows for the compiled core: row 0 gives τ(q, q̇, q̈), row 1 G(q) = τ(q, 0, 0).
-        self._q2 = np.zeros((2, 7))
-        self._qd2 = np.zeros((2, 7))
-        self._qdd2 = np.zeros((2, 7))
+        self._q2 = np.zeros((2, N))
+        self._qd2 = np.zeros((2, N))
+        self._qdd2 = np.zeros((2, N))
         self._warm_up()
 
     def _warm_up(self) -> None:
         """Load every compiled kernel a sample uses (numba's cache, or a compilation) now rather than
         on the first samples, where it would stall the node; then start afresh."""
-        zero = np.zeros(7)
+        zero = np.zeros(N)
         for stamp_ns in (0, 1_000_000):
             self.process(ArmSample(stamp_ns, zero, zero, zero), observe=True)
         self.reset()
@@ -266,7 +266,7 @@ class ResidualPipeline:
 
     def _dynamics(self) -> np.ndarray:
         """(2, 7): τ of the batch rows set in _q2, _qd2, _qdd2 (the compiled kernel: no per-call checks)."""
-        out = np.empty((2, 7))
+        out = np.empty((2, N))
         arm = self.arm
         lagrange_euler.batch_inverse_dynamics(arm.dh, arm.pseudo_inertias, arm.gravity_m_s2, self._q2, self._qd2, self._qdd2, True, out)
         return out

@@ -16,12 +16,10 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from ..core.acceleration import CAUSAL_ESTIMATORS, ESTIMATORS
 from ..errors import SettingsError
 
-__all__ = ["ESTIMATORS", "NodeSettings"]
-
-#: Causal q̈ estimators the live node offers (see :mod:`baxter_dynamics_ros.core.acceleration`).
-ESTIMATORS = ("lowpass", "first_difference")
+__all__ = ["NodeSettings"]
 
 
 def _setting(default: Any, help_text: str, *, live: bool = False, bounds: tuple[float, float] | None = None) -> Any:
@@ -53,7 +51,7 @@ class NodeSettings:
         live=True,
     )
     cutoff_hz: float = _setting(
-        10.0, "Cut-off of the lowpass estimator in Hz (-3 dB); ignored by first_difference.", live=True, bounds=(0.1, 1000.0)
+        ESTIMATORS["lowpass"].default_cutoff_hz, "Cut-off of the lowpass estimator in Hz (-3 dB); ignored by first_difference.", live=True, bounds=(0.1, 1000.0)
     )
     diagnostics_period_s: float = _setting(1.0, "Period of the /diagnostics report and of its window (s).", bounds=(0.05, 3600.0))
     observer_gain_1_s: float = _setting(
@@ -75,8 +73,8 @@ class NodeSettings:
             raise SettingsError(f"arm: expected 'right' or 'left', got {self.arm!r}")
         if not self.joint_states_topic:
             raise SettingsError("joint_states_topic: must not be empty (default /robot/joint_states)")
-        if self.estimator not in ESTIMATORS:
-            raise SettingsError(f"estimator: expected one of {', '.join(ESTIMATORS)}, got {self.estimator!r}")
+        if self.estimator not in CAUSAL_ESTIMATORS:
+            raise SettingsError(f"estimator: expected one of {', '.join(CAUSAL_ESTIMATORS)}, got {self.estimator!r}")
         for spec in self.fields():
             bounds = spec.metadata["bounds"]
             value = getattr(self, spec.name)

@@ -62,16 +62,18 @@ from ..core.effects import (
     CoulombFriction,
     Delay,
     Effect,
+    InertialChange,
     S1Spring,
     StribeckFriction,
     TorqueOffset,
     ViscousFriction,
-    _InertialChange,
     effects_from_dict,
     effects_to_dict,
     friction_law,
     s1_spring_law,
 )
+from ..core.joints import JOINTS as N
+from ..core.joints import S1
 from ..core.recording import Recording
 from ..errors import EffectSpecError, SimulationError
 from .trajectories import TRAJECTORIES, JointReference, make_reference, seed_posture
@@ -91,8 +93,6 @@ __all__ = [
     "write_ground_truth",
 ]
 
-N = 7
-S1 = 1
 #: The names on a real Baxter's /robot/joint_states, in its (alphabetical) order.
 BAXTER_JOINT_NAMES = (
     "head_nod",
@@ -638,7 +638,7 @@ def _plant(arm: ArmModel, spec: SimulationSpec) -> _Plant:
     """The physical effects of the spec as the compiled loop's arrays."""
     j_true = arm.pseudo_inertias.copy()
     for effect in spec.effects:
-        if isinstance(effect, _InertialChange):
+        if isinstance(effect, InertialChange):
             j_true += effect.pseudo_inertia_change(arm)
     armature = spec.effect(Armature)
     viscous = spec.effect(ViscousFriction)

@@ -34,11 +34,11 @@ from numba import njit
 
 from ..core import lagrange_euler
 from ..core.arm_model import ArmModel
+from ..core.joints import JOINTS as N
 from ..errors import SimulationError
 
 __all__ = ["SEED_POSTURE_RAD", "TRAJECTORIES", "JointReference", "cartesian_target", "make_reference", "mirror_joints", "seed_posture"]
 
-N = 7
 TRAJECTORIES = ("paper_xyz", "paper_y", "paper_z", "random")
 #: The start posture of the right arm (rad): hand in front of the robot, pointing down.
 SEED_POSTURE_RAD = np.array([0.0, -0.55, 0.0, 0.75, 0.0, 1.26, 0.0])
