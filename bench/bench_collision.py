@@ -45,22 +45,14 @@ from numpy.lib.stride_tricks import sliding_window_view
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.core.arm_model import ArmModel
 from baxter_dynamics_ros.core.compensation import Compensation
-from baxter_dynamics_ros.core.effects import effects_from_dict
+from baxter_dynamics_ros.core.effect_specs import effects_from_dict
 from baxter_dynamics_ros.core.recording import Recording
-from baxter_dynamics_ros.monitoring.collision import (
-    DEFAULT_CONSECUTIVE,
-    DEFAULT_GAIN_1_S,
-    DEFAULT_MARGIN,
-    CollisionDetector,
-    Thresholds,
-    calibrate,
-    detect,
-    observe,
-    public_detector,
-    public_residual,
-    without_bias,
-)
-from baxter_dynamics_ros.simulation.simulator import Collision, SensorModel, SimulationSpec, external_torques, simulate
+from baxter_dynamics_ros.monitoring.calibration import DEFAULT_MARGIN, calibrate, without_bias
+from baxter_dynamics_ros.monitoring.detector import CollisionDetector, detect, public_detector, public_residual
+from baxter_dynamics_ros.monitoring.observer import DEFAULT_GAIN_1_S, observe
+from baxter_dynamics_ros.monitoring.thresholds import DEFAULT_CONSECUTIVE, Thresholds
+from baxter_dynamics_ros.simulation.plant import external_torques, simulate
+from baxter_dynamics_ros.simulation.spec import Collision, SensorModel, SimulationSpec
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "baxter_real"
 REAL_RATE_HZ = 100.0

@@ -21,9 +21,10 @@ import numpy as np
 
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.core.acceleration import first_difference
-from baxter_dynamics_ros.core.effects import effects_from_dict
+from baxter_dynamics_ros.core.effect_specs import effects_from_dict
 from baxter_dynamics_ros.diagnosis.procedure import diagnose
-from baxter_dynamics_ros.simulation.simulator import SensorModel, SimulationSpec, simulate
+from baxter_dynamics_ros.simulation.plant import simulate
+from baxter_dynamics_ros.simulation.spec import SensorModel, SimulationSpec
 
 GOAL_S = 60.0
 EFFECTS = {"s1_spring": {}, "viscous_friction": {"damping_nm_s_rad": [1.0, 1.5, 0.6, 0.6, 0.15, 0.15, 0.05]}}

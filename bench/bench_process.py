@@ -30,9 +30,11 @@ from typing import TypeVar
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.core.processing import process_recording
 from baxter_dynamics_ros.core.recording import Recording
-from baxter_dynamics_ros.simulation.simulator import SimulationSpec, simulate
+from baxter_dynamics_ros.simulation.plant import simulate
+from baxter_dynamics_ros.simulation.spec import SimulationSpec
 from msg_adapters.bag_io import DEFAULT_TOPIC, read_bag_recording, write_joint_state_bag
 from msg_adapters.recording_files import write_processed
+from msg_adapters.robot_joint_states import robot_joint_states
 
 REPO = Path(__file__).resolve().parents[1]
 GOAL_S = 30.0
@@ -93,7 +95,7 @@ def main(argv: list[str] | None = None) -> int:
         work = Path(folder)
         spec = SimulationSpec(trajectory="random", duration_s=args.duration_s, rate_hz=rate_hz, seed=0)
         result, simulate_s = _timed(lambda: simulate(spec))
-        states = result.robot_joint_states()
+        states = robot_joint_states(result.recording(), result.other_q, result.other_effort)
         source = work / "recording.mcap"
         _, source_s = _timed(
             lambda: write_joint_state_bag(

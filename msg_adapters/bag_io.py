@@ -25,8 +25,7 @@ import numpy as np
 from rosbags.highlevel import AnyReader
 
 from baxter_dynamics_ros.core.joints import ARM_SIDES, arm_joint_names
-from baxter_dynamics_ros.core.processing import ProcessedRecording
-from baxter_dynamics_ros.core.recording import OtherArm, Recording, detect_arm, require_activity
+from baxter_dynamics_ros.core.recording import OtherArm, ProcessedRecording, Recording, detect_arm, require_activity
 from baxter_dynamics_ros.errors import RecordingFileError
 
 from .mcap_writer import write_mcap

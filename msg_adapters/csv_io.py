@@ -33,8 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from baxter_dynamics_ros.core.joints import ARM_SIDES, JOINT_SUFFIXES, arm_joint_names
-from baxter_dynamics_ros.core.processing import ProcessedRecording
-from baxter_dynamics_ros.core.recording import OtherArm, Recording, detect_arm, estimate_rate_hz, require_activity
+from baxter_dynamics_ros.core.recording import OtherArm, ProcessedRecording, Recording, detect_arm, estimate_rate_hz, require_activity
 from baxter_dynamics_ros.errors import RecordingFileError
 
 __all__ = ["RATE_TOLERANCE", "Note", "joint_state_columns", "read_table_recording", "write_processed_table", "write_table"]

@@ -14,7 +14,7 @@ name; ``velocity`` and ``effort`` one per name or none (the sample then has no q
 Output (:class:`ArmJointStateWriter`): CDR bytes of JointState messages with the arm's 7 joint
 names, the input's header stamp (frame_id empty: joint-space torques have no frame), position and
 velocity of the sample, effort = a torque. :func:`diagnostic_array`: the /diagnostics message of
-a :class:`~baxter_dynamics_ros.monitoring.residuals.HealthReport`.
+a :class:`~baxter_dynamics_ros.core.samples.HealthReport`.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.serialization import serialize_message
 from sensor_msgs.msg import JointState
 
-from baxter_dynamics_ros.monitoring.residuals import ArmSample, HealthReport, ModelTorques, SkipReason
+from baxter_dynamics_ros.core.samples import ArmSample, HealthReport, ModelTorques, SkipReason
 
 from .serialized_joint_states import MessageLayout, parse_layout, true_runs
 

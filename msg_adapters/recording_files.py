@@ -23,8 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from baxter_dynamics_ros.core.output_files import check_outputs, staged_outputs
-from baxter_dynamics_ros.core.processing import ProcessedRecording
-from baxter_dynamics_ros.core.recording import Recording
+from baxter_dynamics_ros.core.recording import ProcessedRecording, Recording
 from baxter_dynamics_ros.errors import RecordingError, RecordingFileError
 
 from .bag_io import DEFAULT_TOPIC, Progress, read_bag_recording, write_joint_state_bag, write_processed_bag

@@ -14,7 +14,7 @@ from rosbags.rosbag1 import Writer as Writer1
 from rosbags.rosbag2 import StoragePlugin
 from rosbags.rosbag2 import Writer as Writer2
 
-from baxter_dynamics_ros.simulation.simulator import BAXTER_JOINT_NAMES as BAXTER_JOINTS  # the robot's names, in its order
+from msg_adapters.robot_joint_states import BAXTER_JOINT_NAMES as BAXTER_JOINTS  # the robot's names, in its order
 from msg_adapters.serialized_joint_states import JOINT_STATE, SEA_JOINT_STATE, typestore
 
 BAG_KINDS = ("ros1", "sqlite3", "mcap")

@@ -50,13 +50,16 @@ def test_a_rate_that_disagrees_with_the_estimate_is_refused(export_100_hz: Path,
 def sim(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     """Simulated right-arm recordings as the robot publishes them (21 joints, the left arm still):
     ``train`` (12 s) and ``test`` (4 s) bags, ``table`` (the test data as CSV), ``short`` (1 s)."""
-    from baxter_dynamics_ros.simulation.simulator import SimulationSpec, simulate
+    from baxter_dynamics_ros.simulation.plant import simulate
+    from baxter_dynamics_ros.simulation.spec import SimulationSpec
     from msg_adapters.recording_files import write_joint_states
+    from msg_adapters.robot_joint_states import robot_joint_states
 
     folder = tmp_path_factory.mktemp("sim")
     paths = {}
     for name, duration_s, seed, suffix in (("train", 12.0, 1, ".mcap"), ("test", 4.0, 2, ".mcap"), ("table", 4.0, 2, ".csv"), ("short", 1.0, 3, ".mcap")):
-        states = simulate(SimulationSpec("random", duration_s, 100.0, seed=seed)).robot_joint_states()
+        result = simulate(SimulationSpec("random", duration_s, 100.0, seed=seed))
+        states = robot_joint_states(result.recording(), result.other_q, result.other_effort)
         paths[name] = folder / f"{name}{suffix}"
         write_joint_states(paths[name], states.stamps_ns, states.names, states.position, states.velocity, states.effort)
     return paths

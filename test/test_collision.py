@@ -15,37 +15,28 @@ from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.cli.main import main
 from baxter_dynamics_ros.core.arm_model import ArmModel
 from baxter_dynamics_ros.core.compensation import Compensation
-from baxter_dynamics_ros.core.effects import effects_from_dict
+from baxter_dynamics_ros.core.effect_specs import effects_from_dict
 from baxter_dynamics_ros.errors import CollisionError, EffectSpecError
-from baxter_dynamics_ros.monitoring.collision import (
+from baxter_dynamics_ros.monitoring.calibration import DEFAULT_MARGIN, calibrate, calibrate_thresholds, without_bias
+from baxter_dynamics_ros.monitoring.detector import (
     DEFAULT_BIAS_TIME_CONSTANT_S,
-    DEFAULT_MARGIN,
     PUBLIC_THRESHOLDS_NM,
     CollisionDetector,
-    MomentumObserver,
-    Thresholds,
-    calibrate,
-    calibrate_thresholds,
     detect,
+    public_detector,
+    public_residual,
+)
+from baxter_dynamics_ros.monitoring.observer import (
+    MomentumObserver,
     estimate_effort_delay,
     momentum_terms,
     observe,
     observe_arrays,
-    public_detector,
-    public_residual,
-    read_thresholds,
-    without_bias,
-    write_thresholds,
 )
-from baxter_dynamics_ros.simulation.simulator import (
-    Collision,
-    SensorModel,
-    SimulationSpec,
-    external_torques,
-    read_spec_json,
-    simulate,
-    write_ground_truth,
-)
+from baxter_dynamics_ros.monitoring.thresholds import Thresholds, read_thresholds, write_thresholds
+from baxter_dynamics_ros.simulation.plant import external_torques, simulate
+from baxter_dynamics_ros.simulation.sensor import write_ground_truth
+from baxter_dynamics_ros.simulation.spec import Collision, SensorModel, SimulationSpec, read_spec_json
 from msg_adapters.recording_files import read_recording, write_joint_states
 
 EXACT = SensorModel(position_step_rad=0.0, effort_step_nm=0.0)
@@ -353,8 +344,8 @@ def test_calibrate_cli(tmp_path: Path, pushed, capsys: pytest.CaptureFixture[str
 
 # ----------------------------------------------------------------------------- the node's monitor (no ROS)
 def test_monitor_calibrates_on_the_last_window_only_and_reports_collisions() -> None:
+    from baxter_dynamics_ros.core.samples import Health, HealthReport
     from baxter_dynamics_ros.monitoring.collision_monitor import MAX_RATE_HZ, CollisionMonitor
-    from baxter_dynamics_ros.monitoring.residuals import Health, HealthReport
 
     names = load_arm_model("right").joint_names
     monitor = CollisionMonitor(names, window_s=1.0, gain_1_s=30.0)
@@ -396,8 +387,9 @@ def test_monitor_computes_r_at_calibration_when_the_observer_did_not_run() -> No
     its first settling time constants left out, and gets the thresholds of that r."""
     import functools
 
-    from baxter_dynamics_ros.monitoring.collision import calibrate_thresholds, observe_arrays
+    from baxter_dynamics_ros.monitoring.calibration import calibrate_thresholds
     from baxter_dynamics_ros.monitoring.collision_monitor import SETTLE_TIME_CONSTANTS, CollisionMonitor
+    from baxter_dynamics_ros.monitoring.observer import observe_arrays
 
     arm = load_arm_model("right")
     rng = np.random.default_rng(5)

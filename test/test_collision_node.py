@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from test_node import JOINTS, RATE_HZ, RIGHT, LiveNode, joint_state, next_start_ns
 
-from baxter_dynamics_ros.monitoring.collision import Thresholds, write_thresholds
+from baxter_dynamics_ros.monitoring.thresholds import Thresholds, write_thresholds
 
 rclpy = pytest.importorskip("rclpy")
 from std_msgs.msg import Bool  # noqa: E402

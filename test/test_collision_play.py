@@ -31,7 +31,8 @@ import yaml
 
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.cli.main import main
-from baxter_dynamics_ros.monitoring.collision import observe_arrays, read_thresholds
+from baxter_dynamics_ros.monitoring.observer import observe_arrays
+from baxter_dynamics_ros.monitoring.thresholds import read_thresholds
 from msg_adapters.recording_files import read_recording
 
 rclpy = pytest.importorskip("rclpy")

@@ -20,7 +20,8 @@ from reference_models import pinocchio_from_arm
 from scipy.signal import butter, sosfiltfilt
 
 from baxter_dynamics_ros import load_arm_model
-from baxter_dynamics_ros.core.effects import Delay, InertialError, Payload, effects_from_dict, load_effects
+from baxter_dynamics_ros.core.effect_specs import effects_from_dict, load_effects
+from baxter_dynamics_ros.core.effects import Delay, InertialError, Payload
 from baxter_dynamics_ros.diagnosis.fit import COM_BOX_M, MASS_RANGE, PAYLOAD_COM_BOX_M, PAYLOAD_MASS_KG
 from baxter_dynamics_ros.diagnosis.procedure import CANDIDATE_NAMES, diagnose
 from baxter_dynamics_ros.diagnosis.report import effects_yaml

@@ -10,6 +10,7 @@ import pytest
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.core.acceleration import zero_phase_acceleration
 from baxter_dynamics_ros.core.arm_model import ArmModel
+from baxter_dynamics_ros.core.effect_specs import effects_from_dict, effects_to_dict, load_effects
 from baxter_dynamics_ros.core.effects import (
     EFFECTS,
     AccelerationNoise,
@@ -22,9 +23,6 @@ from baxter_dynamics_ros.core.effects import (
     StribeckFriction,
     TorqueOffset,
     ViscousFriction,
-    effects_from_dict,
-    effects_to_dict,
-    load_effects,
     total_torque,
 )
 from baxter_dynamics_ros.errors import EffectSpecError

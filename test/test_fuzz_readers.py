@@ -22,10 +22,10 @@ from recorded_bags import BAXTER_JOINTS, joint_states
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.cli.simulate import load_spec
 from baxter_dynamics_ros.core.compensation import load_compensation
-from baxter_dynamics_ros.core.effects import load_effects
+from baxter_dynamics_ros.core.effect_specs import load_effects
 from baxter_dynamics_ros.core.recording import Recording
 from baxter_dynamics_ros.errors import BaxterDynamicsError
-from baxter_dynamics_ros.monitoring.collision import Thresholds, read_thresholds, write_thresholds
+from baxter_dynamics_ros.monitoring.thresholds import Thresholds, read_thresholds, write_thresholds
 from msg_adapters.recording_files import read_recording
 
 pytestmark = pytest.mark.filterwarnings("error")  # a warning on stderr is no more welcome than a traceback

@@ -14,8 +14,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from baxter_dynamics_ros import load_arm_model
-from baxter_dynamics_ros.monitoring.residuals import ArmSample, Health, HealthReport, ModelTorques, SkipReason
-from baxter_dynamics_ros.simulation.simulator import BAXTER_JOINT_NAMES
+from baxter_dynamics_ros.core.samples import ArmSample, Health, HealthReport, ModelTorques, SkipReason
+from msg_adapters.robot_joint_states import BAXTER_JOINT_NAMES
 
 pytest.importorskip("rclpy")
 from diagnostic_msgs.msg import DiagnosticStatus  # noqa: E402

@@ -25,8 +25,8 @@ from recorded_bags import START_NS, joint_states
 
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.core.acceleration import FirstDifference, LowPassDifferentiator
-from baxter_dynamics_ros.monitoring.collision import DEFAULT_GAIN_1_S, MomentumObserver
-from baxter_dynamics_ros.simulation.simulator import BAXTER_JOINT_NAMES
+from baxter_dynamics_ros.monitoring.observer import DEFAULT_GAIN_1_S, MomentumObserver
+from msg_adapters.robot_joint_states import BAXTER_JOINT_NAMES
 
 rclpy = pytest.importorskip("rclpy")
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402

@@ -26,6 +26,7 @@ from msg_adapters.bag_io import read_bag_recording, read_joint_state_messages
 from msg_adapters.csv_io import read_table_recording
 from msg_adapters.mcap_writer import write_mcap
 from msg_adapters.recording_files import read_recording, write_joint_states
+from msg_adapters.robot_joint_states import robot_joint_states
 from msg_adapters.serialized_joint_states import (
     JOINT_STATE,
     SEA_JOINT_STATE,
@@ -307,10 +308,11 @@ def test_a_table_whose_columns_name_no_arm_is_read_with_the_arm_given(tmp_path: 
 def test_simulated_500_hz_table_without_time_or_arm_names_reads_back_at_500_hz(tmp_path: Path) -> None:
     """Written by the simulator and msg_adapters' writer, then made into another dataset's file:
     the time columns dropped, the right arm's columns renamed without the arm."""
-    from baxter_dynamics_ros.simulation.simulator import SimulationSpec, simulate
+    from baxter_dynamics_ros.simulation.plant import simulate
+    from baxter_dynamics_ros.simulation.spec import SimulationSpec
 
     result = simulate(SimulationSpec(trajectory="random", duration_s=3.0, rate_hz=500.0, seed=4, side="right"))
-    states = result.robot_joint_states()
+    states = robot_joint_states(result.recording(), result.other_q, result.other_effort)
     written = tmp_path / "simulated.csv"
     write_joint_states(written, states.stamps_ns, states.names, states.position, states.velocity, states.effort)
     header, *rows = written.read_text().splitlines()

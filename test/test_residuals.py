@@ -16,17 +16,10 @@ from reference_models import assert_close, pinocchio_from_arm, random_states
 
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.core.acceleration import FirstDifference, LowPassDifferentiator, first_difference
+from baxter_dynamics_ros.core.samples import ArmSample, Health, ModelTorques, ResetCause, SkipReason
 from baxter_dynamics_ros.errors import SettingsError
-from baxter_dynamics_ros.monitoring.residuals import (
-    ArmSample,
-    Health,
-    HealthMonitor,
-    ModelTorques,
-    ResetCause,
-    ResidualPipeline,
-    SkipReason,
-    make_estimator,
-)
+from baxter_dynamics_ros.monitoring.health import HealthMonitor
+from baxter_dynamics_ros.monitoring.pipeline import ResidualPipeline, make_estimator
 from baxter_dynamics_ros.ros.node_settings import NodeSettings
 
 REPO = Path(__file__).resolve().parent.parent

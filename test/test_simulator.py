@@ -11,17 +11,14 @@ import pytest
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.cli.main import main
 from baxter_dynamics_ros.core.arm_model import ArmModel
-from baxter_dynamics_ros.core.effects import effects_from_dict, total_torque
+from baxter_dynamics_ros.core.effect_specs import effects_from_dict
+from baxter_dynamics_ros.core.effects import total_torque
 from baxter_dynamics_ros.errors import SimulationError
-from baxter_dynamics_ros.simulation.simulator import (
-    BAXTER_JOINT_NAMES,
-    START_STAMP_NS,
-    SensorModel,
-    SimulationSpec,
-    read_spec_json,
-    simulate,
-)
+from baxter_dynamics_ros.simulation.plant import simulate
+from baxter_dynamics_ros.simulation.sensor import START_STAMP_NS
+from baxter_dynamics_ros.simulation.spec import SensorModel, SimulationSpec, read_spec_json
 from msg_adapters.recording_files import read_recording
+from msg_adapters.robot_joint_states import BAXTER_JOINT_NAMES, robot_joint_states
 
 CONFIG = Path(__file__).resolve().parent.parent / "config"
 HALF_STEP_NM = 0.002 + 1e-9  # half the effort quantisation step
@@ -126,7 +123,7 @@ def test_sample_times_and_physics_rate() -> None:
 
 def test_the_whole_robot_is_recorded_the_other_arm_at_rest(arm: ArmModel) -> None:
     r = run(effects={"s1_spring": {}}, sensor=EXACT)
-    states = r.robot_joint_states()
+    states = robot_joint_states(r.recording(), r.other_q, r.other_effort)
     assert states.names == BAXTER_JOINT_NAMES == tuple(sorted(BAXTER_JOINT_NAMES)) and len(states.names) == 21
     index = {n: k for k, n in enumerate(states.names)}
     right = [index[n] for n in arm.joint_names]

@@ -1,10 +1,11 @@
 """``baxter-dynamics calibrate FILES... --out thresholds.yaml``: collision thresholds from collision-free data.
 
 Estimates the effort–state alignment of the files (or takes ``--effort-delay``), runs the momentum
-observer (:mod:`baxter_dynamics_ros.monitoring.collision`, gain ``--gain``) with it over every file, with the
-effects of ``--effects`` compensated, removes the slow bias (``--bias-time-constant``) and writes
-per-joint thresholds a + b|q̇| by the calibration rule of that module (``--margin``;
-``--consecutive`` samples in a row above before a detection; ``--constant`` for b = 0). The
+observer (:mod:`baxter_dynamics_ros.monitoring.observer`, gain ``--gain``) with it over every
+file, with the effects of ``--effects`` compensated, removes the slow bias
+(``--bias-time-constant``) and writes per-joint thresholds a + b|q̇| by the calibration rule of
+:mod:`baxter_dynamics_ros.monitoring.calibration` (``--margin``; ``--consecutive`` samples in a row
+above before a detection; ``--constant`` for b = 0). The
 recordings must be free of contacts: every residual they hold is taken as normal; each must hold
 :data:`~baxter_dynamics_ros.core.recording.MIN_RECORDING_S` and
 :data:`~baxter_dynamics_ros.core.recording.MIN_RECORDING_SAMPLES` samples, all of them
@@ -25,7 +26,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The command's options."""
     from msg_adapters.bag_io import DEFAULT_TOPIC
 
-    from ..monitoring.collision import DEFAULT_BIAS_TIME_CONSTANT_S, DEFAULT_CONSECUTIVE, DEFAULT_GAIN_1_S, DEFAULT_MARGIN
+    from ..monitoring.calibration import DEFAULT_MARGIN
+    from ..monitoring.detector import DEFAULT_BIAS_TIME_CONSTANT_S
+    from ..monitoring.observer import DEFAULT_GAIN_1_S
+    from ..monitoring.thresholds import DEFAULT_CONSECUTIVE
 
     parser.add_argument("files", type=Path, nargs="+", metavar="FILE", help="collision-free recordings (bags or tables)")
     parser.add_argument("--out", "-o", type=Path, required=True, metavar="YAML", help="thresholds file to write")
@@ -60,7 +64,8 @@ def run(args: argparse.Namespace) -> int:
     from ..core.compensation import load_compensation
     from ..core.output_files import check_outputs
     from ..core.recording import MIN_FIT_S, require_length
-    from ..monitoring.collision import calibrate, write_thresholds
+    from ..monitoring.calibration import calibrate
+    from ..monitoring.thresholds import write_thresholds
 
     check_paths(args.files, [args.out])
     if args.out.suffix not in (".yaml", ".yml"):

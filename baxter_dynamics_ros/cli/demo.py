@@ -68,9 +68,12 @@ def model_table() -> None:
 def simulate_recordings(out: Path) -> dict[str, Path]:
     """Step 2: the simulated recordings (mcap bags with Baxter's joint names)."""
     from msg_adapters.recording_files import write_joint_states
+    from msg_adapters.robot_joint_states import robot_joint_states
 
-    from ..core.effects import effects_from_dict
-    from ..simulation.simulator import SensorModel, SimulationSpec, simulate, write_ground_truth
+    from ..core.effect_specs import effects_from_dict
+    from ..simulation.plant import simulate
+    from ..simulation.sensor import write_ground_truth
+    from ..simulation.spec import SensorModel, SimulationSpec
 
     _say(f"\n2. Simulating {len(RECORDINGS)} recordings of {DURATION_S:g} s with effects the model lacks: {', '.join(EFFECTS)}")
     arm = load_arm_model("right")
@@ -81,7 +84,7 @@ def simulate_recordings(out: Path) -> dict[str, Path]:
             effects=effects_from_dict(EFFECTS), sensor=SensorModel(effort_noise_nm=0.1),
         )
         result = simulate(spec, arm)
-        states = result.robot_joint_states()
+        states = robot_joint_states(result.recording(), result.other_q, result.other_effort)
         path = out / f"{name}.mcap"
         write_joint_states(path, states.stamps_ns, states.names, states.position, states.velocity, states.effort, replace=True)
         write_ground_truth(out / f"{name}.mcap.truth.json", result)

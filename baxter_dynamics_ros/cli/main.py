@@ -42,7 +42,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "collision thresholds per joint from collision-free recordings (momentum observer), as thresholds.yaml",
     ),
     "paper-experiment": (
-        "baxter_dynamics_ros.diagnosis.paper_experiment",
+        "baxter_dynamics_ros.cli.paper_experiment",
         "the paper's experiment (Table V, Figs. 5-7) on simulated recordings: L-E and Pinocchio RNEA against the recorded torques",
     ),
 }

@@ -17,7 +17,7 @@ The effects spec (``--effects``) is a YAML file with up to four sections; see
       effort_noise_nm: 0.02
     controller:   # optional: dual-loop gains (ControllerGains)
       inner_bandwidth_rad_s: 150.0
-    collisions:   # optional: external forces/torques on the arm (simulator.Collision), with ground truth
+    collisions:   # optional: external forces/torques on the arm (simulation.spec.Collision), with ground truth
       - {start_s: 5.0, duration_s: 0.5, profile: push, link: flange, force_n: [0.0, 0.0, -30.0]}
       - {start_s: 9.0, duration_s: 0.05, profile: impact, link: joints, torque_nm: [0, 0, 0, 4.0, 0, 0, 0]}
 """
@@ -56,9 +56,9 @@ def ground_truth_path(out: Path) -> Path:
 
 def load_spec(path: Path | None) -> dict:
     """The simulation settings of an effects spec file (None: the rigid-body arm, no collisions), as
-    :class:`~baxter_dynamics_ros.simulation.simulator.SimulationSpec` arguments: effects, sensor, controller, collisions."""
-    from ..core.effects import effects_from_dict, read_spec_file
-    from ..simulation.simulator import ControllerGains, SensorModel
+    :class:`~baxter_dynamics_ros.simulation.spec.SimulationSpec` arguments: effects, sensor, controller, collisions."""
+    from ..core.effect_specs import effects_from_dict, read_spec_file
+    from ..simulation.spec import ControllerGains, SensorModel
 
     raw = {} if path is None else read_spec_file(path)
     unknown = set(raw) - set(SPEC_SECTIONS)
@@ -75,7 +75,7 @@ def load_spec(path: Path | None) -> dict:
 
 def _collisions(raw, where: str):
     """The spec's ``collisions:`` list as simulator Collisions."""
-    from ..simulation.simulator import Collision
+    from ..simulation.spec import Collision
 
     if not isinstance(raw, list):
         raise EffectSpecError(f"{where}: collisions must be a list of mappings, got {raw!r}")
@@ -85,9 +85,12 @@ def _collisions(raw, where: str):
 def run(args: argparse.Namespace) -> int:
     """Simulate args into args.out and its ground truth; returns 0 (errors raise BaxterDynamicsError)."""
     from msg_adapters.recording_files import check_output, write_joint_states
+    from msg_adapters.robot_joint_states import robot_joint_states
 
     from ..core.output_files import check_outputs, staged_outputs
-    from ..simulation.simulator import SimulationSpec, simulate, write_ground_truth
+    from ..simulation.plant import simulate
+    from ..simulation.sensor import write_ground_truth
+    from ..simulation.spec import SimulationSpec
 
     truth = ground_truth_path(args.out)
     check_output(args.out, replace=args.force)  # before simulating: fail fast
@@ -102,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
         file=sys.stderr,
     )
     result = simulate(spec)
-    states = result.robot_joint_states()
+    states = robot_joint_states(result.recording(), result.other_q, result.other_effort)
     with staged_outputs([args.out, truth]) as (staged_out, staged_truth):  # both or neither
         write_joint_states(
             staged_out, states.stamps_ns, states.names, states.position, states.velocity, states.effort, topic=args.topic

@@ -22,7 +22,8 @@ import numpy as np
 
 from ..errors import EffectSpecError
 from .arm_model import ArmModel
-from .effects import Effect, InertialChange, effects_from_dict, read_spec_file
+from .effect_specs import effects_from_dict, read_spec_file
+from .effects import Effect, InertialChange
 
 __all__ = ["NOT_COMPENSATED", "Compensation", "load_compensation"]
 

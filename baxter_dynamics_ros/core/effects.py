@@ -14,7 +14,7 @@ Each effect is a small frozen dataclass of its parameters (units in the field na
   (offsets, friction coefficients at a fixed velocity scale, spring coefficients, inertial
   parameters, armature), first order in the delay, a unit scale for ``acceleration_noise``.
   ``parameter_names()`` labels the p columns.
-- ``from_dict`` / ``to_dict`` for YAML and JSON (see :func:`effects_from_dict`).
+- ``from_dict`` / ``to_dict`` for YAML and JSON (the files: :mod:`.effect_specs`).
 
 The s1 gravity-assist spring
     Baxter's two external springs act on s1 and hold part of the arm's weight. The actuators
@@ -26,7 +26,7 @@ The s1 gravity-assist spring
     (+37 N·m extrapolated to q_s1 = 0, +5 N·m at q_s1 = −1.3).
 
 Measurement effects (``torque_offset``, ``delay``, ``acceleration_noise``) change what is recorded,
-not how the arm moves; the others act on the arm (see :mod:`baxter_dynamics_ros.simulation.simulator`).
+not how the arm moves; the others act on the arm (see :mod:`baxter_dynamics_ros.simulation.plant`).
 
 The friction and spring laws are numba ufuncs, so that the simulator's compiled loop and these
 numpy methods evaluate the very same expressions.
@@ -35,7 +35,6 @@ numpy methods evaluate the very same expressions.
 from __future__ import annotations
 
 import dataclasses
-import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, ClassVar
@@ -49,7 +48,6 @@ from .acceleration import zero_phase_acceleration
 from .arm_model import ArmModel, LinkInertial, link_from_parameters, link_parameters
 from .joints import JOINT_SUFFIXES, S1
 from .joints import JOINTS as N
-from .yaml_files import read_yaml
 
 __all__ = [
     "EFFECTS",
@@ -66,11 +64,7 @@ __all__ = [
     "StribeckFriction",
     "TorqueOffset",
     "ViscousFriction",
-    "effects_from_dict",
-    "effects_to_dict",
     "friction_law",
-    "load_effects",
-    "read_spec_file",
     "s1_spring_law",
     "total_torque",
 ]
@@ -602,45 +596,7 @@ EFFECTS: dict[str, type[Effect]] = {
 }
 
 
-# ----------------------------------------------------------------------------- collections and files
-def effects_from_dict(raw: Any, where: str = "effects") -> tuple[Effect, ...]:
-    """Effects from a mapping ``{name: {parameter: value}}``, in :data:`EFFECTS` order.
-
-    Joint parameters take a number (every joint), a list of 7 (s0 … w2) or a mapping by joint
-    (``{s1: 2.0}``, the others 0, or 1 for scales). Missing parameters with defaults take them.
-    """
-    if raw is None:
-        return ()
-    if not isinstance(raw, Mapping):
-        raise EffectSpecError(f"{where}: expected a mapping of effect names to parameters, got {raw!r}")
-    unknown = set(raw) - set(EFFECTS)
-    if unknown:
-        raise EffectSpecError(f"{where}: unknown effects {sorted(unknown)}; known: {', '.join(EFFECTS)}")
-    return tuple(cls.from_dict(raw[name], f"{where}.{name}") for name, cls in EFFECTS.items() if name in raw)
-
-
-def effects_to_dict(effects: tuple[Effect, ...]) -> dict[str, dict[str, float | list[float]]]:
-    """The inverse of :func:`effects_from_dict`."""
-    return {e.name: e.to_dict() for e in effects}
-
-
-def read_spec_file(path: str | os.PathLike[str]) -> dict[str, Any]:
-    """A YAML (or JSON) spec file as a mapping; raises EffectSpecError naming the path (also for
-    an empty file: "no effects" is said by leaving the file out, or by ``effects: {}``)."""
-    raw = read_yaml(path, EffectSpecError, "effects file")
-    if not isinstance(raw, dict):
-        raise EffectSpecError(f"{path}: expected a mapping with an 'effects' section")
-    return raw
-
-
-def load_effects(path: str | os.PathLike[str]) -> tuple[Effect, ...]:
-    """The effects of the ``effects:`` section of a spec file (other sections are left to their users)."""
-    raw = read_spec_file(path)
-    if "effects" not in raw:
-        raise EffectSpecError(f"{path}: no 'effects' section; write effects: {{name: {{parameter: value}}}}")
-    return effects_from_dict(raw["effects"], f"{path}: effects")
-
-
+# ----------------------------------------------------------------------------- collections
 def total_torque(effects: tuple[Effect, ...], arm: ArmModel, q, qd, qdd, *, stamps_s=None) -> np.ndarray:
     """Σ of the effects' shares of the recorded effort, N·m, shape of q."""
     out = np.zeros(np.shape(q))

@@ -12,35 +12,14 @@ at once. q̈ comes from one of the estimators of :mod:`baxter_dynamics_ros.core.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from ..errors import RecordingError
 from .acceleration import ESTIMATORS, LowPassDifferentiator, first_difference, zero_phase_acceleration
 from .arm_model import ArmModel
-from .recording import Recording
+from .recording import ProcessedRecording, Recording
 
-__all__ = ["ProcessedRecording", "estimate_acceleration", "process_recording"]
-
-
-@dataclass(frozen=True)
-class ProcessedRecording:
-    """A recording with the model's torques, all (N, 7), sample k of each array at stamps_ns[k].
-
-    qdd: estimated q̈, rad/s²; gravity: G(q) of eq. (8), N·m; inverse_dynamics: τ = M q̈ + C + G of
-    eq. (1), N·m; residual: recorded effort − τ, N·m (what the rigid-body model leaves unexplained).
-    """
-
-    recording: Recording
-    qdd: np.ndarray
-    gravity: np.ndarray
-    inverse_dynamics: np.ndarray
-    residual: np.ndarray
-
-    def torques(self) -> dict[str, np.ndarray]:
-        """The three computed torques by name: gravity, inverse_dynamics, residual, each (N, 7) N·m."""
-        return {"gravity": self.gravity, "inverse_dynamics": self.inverse_dynamics, "residual": self.residual}
+__all__ = ["estimate_acceleration", "process_recording"]
 
 
 def estimate_acceleration(recording: Recording, method: str = "zero_phase", cutoff_hz: float | None = None) -> np.ndarray:

@@ -1,7 +1,9 @@
-"""A recording of one arm: joint states over time, as read from a bag or CSV file.
+"""A recording of one arm: joint states over time, as read from a bag or CSV file, and processed.
 
 :class:`Recording` is the core's data container between the file readers of ``msg_adapters/``
 and the computations: immutable, validated once when it is made, numpy only.
+:class:`ProcessedRecording` adds the model's torques of every sample
+(:func:`~baxter_dynamics_ros.core.processing.process_recording`), for the writers.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ __all__ = [
     "MIN_RECORDING_S",
     "MIN_RECORDING_SAMPLES",
     "OtherArm",
+    "ProcessedRecording",
     "Recording",
     "detect_arm",
     "estimate_rate_hz",
@@ -220,3 +223,22 @@ class Recording:
     def duration_s(self) -> float:
         """Time from the first to the last sample, s."""
         return (int(self.stamps_ns[-1]) - int(self.stamps_ns[0])) * 1e-9
+
+
+@dataclass(frozen=True)
+class ProcessedRecording:
+    """A recording with the model's torques, all (N, 7), sample k of each array at stamps_ns[k].
+
+    qdd: estimated q̈, rad/s²; gravity: G(q) of eq. (8), N·m; inverse_dynamics: τ = M q̈ + C + G of
+    eq. (1), N·m; residual: recorded effort − τ, N·m (what the rigid-body model leaves unexplained).
+    """
+
+    recording: Recording
+    qdd: np.ndarray
+    gravity: np.ndarray
+    inverse_dynamics: np.ndarray
+    residual: np.ndarray
+
+    def torques(self) -> dict[str, np.ndarray]:
+        """The three computed torques by name: gravity, inverse_dynamics, residual, each (N, 7) N·m."""
+        return {"gravity": self.gravity, "inverse_dynamics": self.inverse_dynamics, "residual": self.residual}

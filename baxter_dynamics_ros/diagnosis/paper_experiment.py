@@ -1,6 +1,6 @@
 """The paper's experiment (Section IV–V, Table V, Figs. 3, 5–7) reproduced on simulated recordings.
 
-``baxter-dynamics paper-experiment --out DIR [--page PAGE.md]`` drives the simulated right arm
+``baxter-dynamics paper-experiment --out DIR [--page PAGE.md]`` (:mod:`baxter_dynamics_ros.cli.paper_experiment`) drives the simulated right arm
 through the paper's three trajectories (:mod:`baxter_dynamics_ros.simulation.trajectories`), records at
 50 Hz like the paper, estimates q̈ by first differences of q̇ (dt = 0.02 s, as the paper did), and
 compares the torques of the Lagrange-Euler core and of Pinocchio's RNEA (built from the same
@@ -24,7 +24,6 @@ spring's torque back to the recorded effort — exactly, since the simulation kn
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 from dataclasses import dataclass
@@ -34,11 +33,14 @@ import numpy as np
 
 from ..core.acceleration import first_difference, zero_phase_acceleration
 from ..core.arm_model import ArmModel, load_arm_model
-from ..core.effects import S1Spring, effects_from_dict
+from ..core.effect_specs import effects_from_dict
+from ..core.effects import S1Spring
 from ..core.joints import JOINT_SUFFIXES
 from ..core.joints import JOINTS as N
-from ..core.output_files import check_outputs, staged_outputs
-from ..simulation.simulator import SensorModel, SimulationResult, SimulationSpec, simulate, write_ground_truth
+from ..core.output_files import staged_outputs
+from ..simulation.plant import simulate
+from ..simulation.sensor import SimulationResult, write_ground_truth
+from ..simulation.spec import SensorModel, SimulationSpec
 
 __all__ = ["EFFECTS", "PAPER_TABLE_V", "PAPER_TABLE_V_SUM", "SENSOR", "SetResult", "run_experiment"]
 
@@ -313,18 +315,12 @@ L-E and RN-E agree to {le_rne:.1e} N·m on every sample (same parameters, two al
 """
 
 
-# ----------------------------------------------------------------------------- command
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """The command's options."""
-    parser.add_argument("--out", "-o", type=Path, required=True, metavar="DIR", help="folder for the tables, figures and page (created)")
-    parser.add_argument("--page", type=Path, metavar="PAGE.md", help="where to write the page (default DIR/paper_experiment.md)")
-    parser.add_argument("--duration", type=float, default=DURATION_S, metavar="S", help=f"seconds per set (default {DURATION_S:g})")
-    parser.add_argument("--seed", type=int, default=0, metavar="N", help="seed of set 1's noise (set k: N + k − 1; default 0)")
+# ----------------------------------------------------------------------------- outputs
 
 
 def write_outputs(sets: list[SetResult], out: Path, page: Path, command: str) -> None:
     """Tables, figures, results and ground truths into ``out``; the page at ``page``: all of them
-    or none (:mod:`.output_files`; existing ones are replaced). The folders' parents must exist."""
+    or none (:mod:`~baxter_dynamics_ros.core.output_files`; existing ones are replaced). The folders' parents must exist."""
     figures = _figure_files(sets)
     truths = [f"set{s.number}_{s.trajectory}.truth.json" for s in sets]
     names = ["table_v.md", *figures, *truths, "results.json"]
@@ -339,20 +335,3 @@ def write_outputs(sets: list[SetResult], out: Path, page: Path, command: str) ->
         at["results.json"].write_text(json.dumps(results, indent=1) + "\n", encoding="utf-8")
         figure_dir = Path(os.path.relpath(out, page.parent)).as_posix()
         at["page"].write_text(page_markdown(sets, figure_dir, command), encoding="utf-8")
-
-
-def run(args: argparse.Namespace) -> int:
-    """Run the experiment and write its outputs; returns 0."""
-    page = args.page if args.page is not None else args.out / "paper_experiment.md"
-    command = f"baxter-dynamics paper-experiment --out {args.out.as_posix()}"
-    if args.page is not None:
-        command += f" --page {args.page.as_posix()}"
-    if args.duration != DURATION_S:
-        command += f" --duration {args.duration:g}"
-    if args.seed != 0:
-        command += f" --seed {args.seed}"
-    check_outputs([args.out / "results.json", page], replace=True)  # before the experiment: fail fast
-    sets = run_experiment(args.duration, args.seed)
-    write_outputs(sets, args.out, page, command)
-    print(f"{args.out}: Table V, figures and results; page: {page}")
-    return 0

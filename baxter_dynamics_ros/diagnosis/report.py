@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from ..core.effects import effects_to_dict
+from ..core.effect_specs import effects_to_dict
 from ..core.joints import JOINTS as N
 from ..core.output_files import staged_outputs
 from .procedure import STABLE_FRACTION, DiagnosisResult
@@ -283,7 +283,7 @@ def effects_yaml(result: DiagnosisResult) -> str:
 
 def write_diagnosis(result: DiagnosisResult, out_dir: str | os.PathLike[str]) -> dict[str, Path]:
     """Write every output file into out_dir (created if needed; its parent must exist), all or
-    none of them (:mod:`.output_files`); returns them by name."""
+    none of them (:mod:`~baxter_dynamics_ros.core.output_files`); returns them by name."""
     out = Path(out_dir)
     targets = {name: out / name for name in OUTPUT_FILES}
     with staged_outputs(list(targets.values())) as staged:

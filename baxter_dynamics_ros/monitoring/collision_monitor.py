@@ -5,12 +5,12 @@
 - the latest samples with effort (stamp, q, q̇, effort and r when the observer ran) in preallocated
   ring buffers of ``calibration_window_s`` · :data:`MAX_RATE_HZ` rows, from which
   :meth:`~CollisionMonitor.calibrate` takes thresholds
-  (:func:`~baxter_dynamics_ros.monitoring.collision.calibrate_thresholds`) over the last
+  (:func:`~baxter_dynamics_ros.monitoring.calibration.calibrate_thresholds`) over the last
   ``calibration_window_s`` (``~/calibrate``). The node runs the observer only while detection is
   active or ``~/external_torque`` has a subscriber; for the other samples r is computed at
   calibration, by ``observe_window`` over the buffered window (its first
   :data:`SETTLE_TIME_CONSTANTS` observer time constants left out, while r settles from 0);
-- a :class:`~baxter_dynamics_ros.monitoring.collision.CollisionDetector` on r, run while monitoring is on
+- a :class:`~baxter_dynamics_ros.monitoring.detector.CollisionDetector` on r, run while monitoring is on
   (``~/set_monitoring``) and thresholds are known (``thresholds_file`` or a calibration);
 - the diagnostics window's collision summary: :meth:`~CollisionMonitor.report` raises the health
   report to ERROR naming the joints when a collision was on at any time in the window.
@@ -23,9 +23,11 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from ..core.samples import Health, HealthReport
 from ..errors import CollisionError
-from .collision import DEFAULT_BIAS_TIME_CONSTANT_S, CollisionDetector, Thresholds, calibrate_thresholds
-from .residuals import Health, HealthReport
+from .calibration import calibrate_thresholds
+from .detector import DEFAULT_BIAS_TIME_CONSTANT_S, CollisionDetector
+from .thresholds import Thresholds
 
 __all__ = ["MAX_RATE_HZ", "MIN_CALIBRATION_SAMPLES", "SETTLE_TIME_CONSTANTS", "CollisionMonitor"]
 

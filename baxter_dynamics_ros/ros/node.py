@@ -23,13 +23,13 @@ the sample's position and velocity):
 - out ``~/gravity`` (effort = G(q)), ``~/inverse_dynamics`` (effort = τ with the estimated q̈),
   ``~/residual`` (effort = measured effort − τ; not published when the input has no effort),
   ``~/external_torque`` (effort = r of the generalised-momentum observer, gain ``observer_gain_1_s``,
-  on the same model; ≈ −τ_ext, see :mod:`baxter_dynamics_ros.monitoring.collision`; not published without effort).
+  on the same model; ≈ −τ_ext, see :mod:`baxter_dynamics_ros.monitoring.observer`; not published without effort).
   QoS: reliable, volatile, keep last ``qos_depth``, which every subscriber can match. Each is
   written only while it has a subscriber;
 - out ``/diagnostics`` (diagnostic_msgs/DiagnosticArray) every ``diagnostics_period_s`` on the
   steady clock (so it reports even when a simulated clock stops): input rate, samples skipped per
   cause, processing latency (sample taken → last output written), per-joint residual RMS over the
-  window; levels as in :mod:`baxter_dynamics_ros.monitoring.residuals`, raised to ERROR naming the joints when
+  window; levels as in :mod:`baxter_dynamics_ros.monitoring.health`, raised to ERROR naming the joints when
   a collision was detected in the window;
 - out ``~/collision`` (std_msgs/Bool, reliable, transient local: a late subscriber gets the state at
   once): published on every change and with every diagnostics report.
@@ -45,7 +45,7 @@ Service ``~/reset`` (std_srvs/Trigger) restarts the q̈ estimator and the observ
 samples buffered for calibration. With ``use_sim_time`` the node
 runs on /clock; a backwards jump of that clock (a recording looping) resets the estimator, as does
 a header stamp going backwards. Bad samples are skipped, counted and warned about at most once per
-second per cause (see :class:`~baxter_dynamics_ros.monitoring.residuals.SkipReason`); the node never stops
+second per cause (see :class:`~baxter_dynamics_ros.core.samples.SkipReason`); the node never stops
 on input. That includes samples no real Baxter can give (``implausible_input``): a joint angle
 more than 0.1 rad beyond the model's joint limits, a speed above 3 × the joint's velocity limit
 (4.5 rad/s at s0–e1, 12 rad/s at the wrist), an effort above 3 × its effort limit (150, 300, 150,
@@ -61,7 +61,7 @@ not by the executor, whose Python bookkeeping costs ~0.2 ms per wake-up — a fi
 diagnostics timer, /clock); one lock keeps the two threads apart.
 
 This module owns the ROS objects and nothing else: the work is done by
-:class:`~baxter_dynamics_ros.monitoring.residuals.ResidualPipeline` and
+:class:`~baxter_dynamics_ros.monitoring.pipeline.ResidualPipeline` and
 :class:`~baxter_dynamics_ros.monitoring.collision_monitor.CollisionMonitor`, the message layouts by
 :mod:`msg_adapters.joint_state`.
 """
@@ -100,10 +100,13 @@ from msg_adapters.joint_state import ArmJointStateWriter, JointStateReader, diag
 
 from ..core.arm_model import load_arm_model
 from ..core.compensation import load_compensation
+from ..core.samples import SKIP_DESCRIPTIONS, ResetCause, SkipReason
 from ..errors import BaxterDynamicsError, CollisionError, SettingsError
-from ..monitoring.collision import observe_arrays, read_thresholds
 from ..monitoring.collision_monitor import CollisionMonitor
-from ..monitoring.residuals import SKIP_DESCRIPTIONS, HealthMonitor, ResetCause, ResidualPipeline, SkipReason
+from ..monitoring.health import HealthMonitor
+from ..monitoring.observer import observe_arrays
+from ..monitoring.pipeline import ResidualPipeline
+from ..monitoring.thresholds import read_thresholds
 from .node_settings import NodeSettings
 
 __all__ = ["DynamicsNode", "SubscriptionThread", "main"]

@@ -1,5 +1,6 @@
 """Simulation: a Baxter arm with unmodelled effects whose ground truth is known.
 
-The simulator (:mod:`.simulator`) and the reference trajectories it follows (:mod:`.trajectories`).
-Imports only the core.
+What a run is (:mod:`.spec`), the plant and its controller (:mod:`.plant`: ``simulate``), what the
+robot records of it and the ground truth (:mod:`.sensor`), and the reference trajectories
+(:mod:`.trajectories`). Imports only the core.
 """

@@ -1,7 +1,7 @@
-"""The live node's work on one joint-state sample, and its health report; numpy only, no ROS.
+"""The live node's work on one joint-state sample: model torques and residual; numpy only, no ROS.
 
 :class:`ResidualPipeline` turns one sample of the arm (stamp, q, q̇ or nothing, effort or nothing)
-into G(q), τ and the residual, or into a :class:`SkipReason` (the message reader,
+into G(q), τ and the residual, or into a :class:`~baxter_dynamics_ros.core.samples.SkipReason` (the message reader,
 :mod:`msg_adapters.joint_state`, gives the others: ``unreadable``, ``missing_joint``,
 ``array_length``). For sample k, k−1 being the last accepted sample:
 
@@ -34,26 +34,16 @@ into G(q), τ and the residual, or into a :class:`SkipReason` (the message reade
    number far from overflow, so this is a guard, not an expected path;
 7. residual = measured effort − τ, or None when the message has no effort;
 8. external torque r = the generalised-momentum observer's output
-   (:class:`~baxter_dynamics_ros.monitoring.collision.MomentumObserver`, gain ``observer_gain_1_s``, effort–state
-   alignment ``observer_effort_delay_s``, the same compensated model) on the samples with effort, or None without effort. The observer restarts
-   (r = 0) with the estimator, and after a sample without effort.
+   (:class:`~baxter_dynamics_ros.monitoring.observer.MomentumObserver`, gain ``observer_gain_1_s``,
+   effort–state alignment ``observer_effort_delay_s``, the same compensated model) on the samples
+   with effort, or None without effort. The observer restarts (r = 0) with the estimator, and after
+   a sample without effort.
 
-:class:`HealthMonitor` counts what happened to every sample and reports once per window (the
-node's ``diagnostics_period_s``, 1 s by default) as plain data, which the node publishes on
-/diagnostics. Levels:
-
-- OK — samples came in and every one was published, with a residual, and every statistic is
-  finite (a non-finite residual RMS is reported as WARN, never OK);
-- WARN — no sample came in the window (robot or recording stopped, wrong topic), or some samples
-  were skipped for a fault, or some samples had no effort (no residual published for them);
-- ERROR — samples came in but none could be published (every one skipped for a fault).
+The records it takes and gives are the core's (:mod:`baxter_dynamics_ros.core.samples`); what
+happened to every sample is counted by :mod:`.health`.
 """
 
 from __future__ import annotations
-
-from collections.abc import Sequence
-from enum import Enum, IntEnum
-from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -63,98 +53,21 @@ from ..core.acceleration import CAUSAL_ESTIMATORS, FirstDifference, LowPassDiffe
 from ..core.arm_model import ArmModel
 from ..core.compensation import Compensation
 from ..core.joints import JOINTS as N
+from ..core.samples import ArmSample, ModelTorques, SkipReason
 from ..errors import CollisionError, SettingsError
-from .collision import DEFAULT_GAIN_1_S, MomentumObserver
+from .observer import DEFAULT_GAIN_1_S, MomentumObserver
 
 __all__ = [
-    "ArmSample",
-    "Health",
-    "HealthMonitor",
-    "HealthReport",
-    "ModelTorques",
     "PLAUSIBLE_FACTOR",
     "POSITION_MARGIN_RAD",
-    "ResetCause",
     "ResidualPipeline",
-    "SKIP_DESCRIPTIONS",
-    "SkipReason",
     "make_estimator",
 ]
-
 
 #: How far beyond a joint limit a measured angle may be, rad (5.7°: past the hard stops).
 POSITION_MARGIN_RAD = 0.1
 #: A measured speed (effort) may be at most this many times the joint's velocity (effort) limit.
 PLAUSIBLE_FACTOR = 3.0
-
-
-class SkipReason(Enum):
-    """Why a sample gave no output; the value names the cause in diagnostics and logs."""
-
-    UNREADABLE = "unreadable"
-    MISSING_JOINT = "missing_joint"
-    ARRAY_LENGTH = "array_length"
-    NON_FINITE_INPUT = "non_finite_input"
-    IMPLAUSIBLE_INPUT = "implausible_input"
-    DUPLICATE_STAMP = "duplicate_stamp"
-    STAMP_BACKWARDS = "stamp_backwards"
-    VELOCITY_WARM_UP = "velocity_warm_up"
-    NON_FINITE_MODEL = "non_finite_model"
-
-    @property
-    def is_fault(self) -> bool:
-        """False for the one expected skip (the first sample without velocity), True otherwise."""
-        return self is not SkipReason.VELOCITY_WARM_UP
-
-
-#: One line per cause, for the node's warnings.
-SKIP_DESCRIPTIONS: dict[SkipReason, str] = {
-    SkipReason.UNREADABLE: "the message's bytes are not a JointState in plain CDR",
-    SkipReason.MISSING_JOINT: "an arm joint is missing from the message's name list, or named twice",
-    SkipReason.ARRAY_LENGTH: "position (or a non-empty velocity/effort) has not one entry per name",
-    SkipReason.NON_FINITE_INPUT: "NaN or inf in the arm's position, velocity or effort",
-    SkipReason.IMPLAUSIBLE_INPUT: "a position beyond the joint limits, or a speed or effort no real Baxter reaches",
-    SkipReason.DUPLICATE_STAMP: "same header stamp as the previous sample",
-    SkipReason.STAMP_BACKWARDS: "header stamp earlier than the previous sample's; estimator reset",
-    SkipReason.VELOCITY_WARM_UP: "no velocity in the message: waiting for a second sample to difference",
-    SkipReason.NON_FINITE_MODEL: "the dynamics gave NaN or inf (absurdly large input?); estimator reset",
-}
-
-
-class ResetCause(Enum):
-    """Why the estimator was reset: from outside the pipeline, or by it when a state went non-finite."""
-
-    SERVICE = "service"
-    CLOCK_JUMP = "clock_jump"
-    SETTINGS = "settings"
-    NON_FINITE_STATE = "non_finite_state"
-
-
-class ArmSample(NamedTuple):
-    """One sample of the arm: stamp in ns; q (7,) rad; qd (7,) rad/s or None; effort (7,) N·m or None."""
-
-    stamp_ns: int
-    q: np.ndarray
-    qd: np.ndarray | None
-    effort: np.ndarray | None
-
-
-class ModelTorques(NamedTuple):
-    """The pipeline's output for one sample, all (7,): q rad, qd rad/s (measured, or differenced
-    from positions when ``qd_from_positions``), qdd rad/s² (estimated), gravity G(q), tau (eq. 1),
-    residual = effort − tau and external_torque = the momentum observer's r, in N·m (both None
-    without effort); effort: the measured one it came from (None without)."""
-
-    stamp_ns: int
-    q: np.ndarray
-    qd: np.ndarray
-    qdd: np.ndarray
-    gravity: np.ndarray
-    tau: np.ndarray
-    residual: np.ndarray | None
-    qd_from_positions: bool
-    external_torque: np.ndarray | None = None
-    effort: np.ndarray | None = None
 
 
 def make_estimator(name: str, cutoff_hz: float) -> LowPassDifferentiator | FirstDifference:
@@ -183,13 +96,6 @@ def _within(x: np.ndarray, low: np.ndarray, high: np.ndarray) -> bool:
         if not (low[j] <= x[j] <= high[j]):
             return False
     return True
-
-
-@njit(cache=True)
-def _add_squares(total: np.ndarray, x: np.ndarray) -> None:
-    """total += x² in place (compiled: no overflow warning on stderr; an overflow gives inf)."""
-    for j in range(x.shape[0]):
-        total[j] += x[j] * x[j]
 
 
 def _all_finite(x: np.ndarray | None) -> bool:
@@ -322,113 +228,3 @@ class ResidualPipeline:
         return ModelTorques(
             stamp_ns, q, qd, qdd, tau_and_gravity[1], tau_and_gravity[0], residual, qd_from_positions, external_torque, effort
         )
-
-
-class Health(IntEnum):
-    """Report level; the values are diagnostic_msgs/DiagnosticStatus's OK, WARN and ERROR."""
-
-    OK = 0
-    WARN = 1
-    ERROR = 2
-
-
-class HealthReport(NamedTuple):
-    """One window's summary: level, a one-line message, and (key, value) pairs to publish."""
-
-    level: Health
-    message: str
-    values: tuple[tuple[str, str], ...]
-
-
-class HealthMonitor:
-    """Counts the pipeline's results over a window and reports (see the module docstring).
-
-    Per window: input rate, samples received / published / skipped per cause, processing latency
-    (mean and max, as measured by the caller), and the per-joint residual RMS
-    sqrt(mean(residual²)) over the window's samples. Totals since start for skips and resets.
-    """
-
-    def __init__(self, joint_names: Sequence[str], topic: str) -> None:
-        self.joint_names = tuple(joint_names)
-        self.topic = topic
-        self._skips_total = dict.fromkeys(SkipReason, 0)
-        self._resets_total = dict.fromkeys(ResetCause, 0)
-        self._new_window()
-
-    def _new_window(self) -> None:
-        self._skips = dict.fromkeys(SkipReason, 0)
-        self._published = 0
-        self._with_residual = 0
-        self._qd_from_positions = 0
-        self._residual_sq_sum = np.zeros(len(self.joint_names))
-        self._latency_sum_ns = 0
-        self._latency_max_ns = 0
-
-    def record(self, result: ModelTorques | SkipReason, latency_ns: int) -> None:
-        """Count one sample's result and the time the caller took to handle it (ns)."""
-        self._latency_sum_ns += latency_ns
-        if latency_ns > self._latency_max_ns:
-            self._latency_max_ns = latency_ns
-        if isinstance(result, SkipReason):
-            self._skips[result] += 1
-            if result is SkipReason.NON_FINITE_MODEL:  # the pipeline reset its states
-                self._resets_total[ResetCause.NON_FINITE_STATE] += 1
-            return
-        self._published += 1
-        self._qd_from_positions += result.qd_from_positions
-        if result.residual is not None:
-            self._with_residual += 1
-            _add_squares(self._residual_sq_sum, result.residual)
-
-    def record_reset(self, cause: ResetCause) -> None:
-        """Count an estimator reset asked from outside the pipeline (its own are counted by :meth:`record`)."""
-        self._resets_total[cause] += 1
-
-    def report(self, elapsed_s: float) -> HealthReport:
-        """Summarise the window that lasted elapsed_s seconds, and start the next one."""
-        skipped = sum(self._skips.values())
-        received = self._published + skipped
-        faults = {r.value: n for r, n in self._skips.items() if n and r.is_fault}
-        fault_text = ", ".join(f"{name}: {n}" for name, n in faults.items())
-        if received == 0:
-            level, message = Health.WARN, f"no joint states on {self.topic} in the last {elapsed_s:.1f} s"
-        elif self._published == 0 and faults:
-            level, message = Health.ERROR, f"all {received} samples skipped ({fault_text}): nothing published"
-        elif self._published == 0:
-            level, message = Health.WARN, "no velocity in the input: waiting for a second sample"
-        elif faults:
-            level, message = Health.WARN, f"{skipped} of {received} samples skipped ({fault_text})"
-        elif self._with_residual < self._published:
-            missing = self._published - self._with_residual
-            level, message = Health.WARN, f"{missing} of {received} samples had no effort: no residual for them"
-        else:
-            level, message = Health.OK, f"publishing at {received / elapsed_s:.1f} Hz"
-        with np.errstate(invalid="ignore", over="ignore"):
-            rms = np.sqrt(self._residual_sq_sum / max(self._with_residual, 1))
-        if self._with_residual and not np.isfinite(rms).all():  # a statistic that says nothing is never OK
-            overflowed = ", ".join(j for j, r in zip(self.joint_names, rms) if not np.isfinite(r))
-            level, message = max(level, Health.WARN), f"{message}; residual RMS not finite at {overflowed}"
-
-        for reason, n in self._skips.items():
-            self._skips_total[reason] += n
-        rate_hz = received / elapsed_s if elapsed_s > 0 else 0.0
-        values: list[tuple[str, str]] = [
-            ("topic", self.topic),
-            ("window_s", f"{elapsed_s:.3f}"),
-            ("input_rate_hz", f"{rate_hz:.1f}"),
-            ("samples_received", str(received)),
-            ("samples_published", str(self._published)),
-            ("residuals_published", str(self._with_residual)),
-            ("velocity_from_positions", str(self._qd_from_positions)),
-            ("latency_mean_us", f"{self._latency_sum_ns / received / 1e3:.1f}" if received else "n/a"),
-            ("latency_max_us", f"{self._latency_max_ns / 1e3:.1f}" if received else "n/a"),
-        ]
-        values += [(f"skipped.{r.value}", str(n)) for r, n in self._skips.items()]
-        values += [(f"skipped_total.{r.value}", str(n)) for r, n in self._skips_total.items()]
-        values += [(f"resets_total.{c.value}", str(n)) for c, n in self._resets_total.items()]
-        if self._with_residual:
-            values += [(f"residual_rms_nm.{j}", f"{r:.4g}") for j, r in zip(self.joint_names, rms)]
-        else:
-            values += [(f"residual_rms_nm.{j}", "n/a") for j in self.joint_names]
-        self._new_window()
-        return HealthReport(level, message, tuple(values))
