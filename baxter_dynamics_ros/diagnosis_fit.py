@@ -63,13 +63,9 @@ PAYLOAD_PRIOR_MEAN = {"mass_kg": 1.0, "com_m": (0.0, 0.0, 0.05), "gyration_m": 0
 PAYLOAD_PRIOR_STD = {"alpha": 1.0, "d": 0.7, "s": 1.0, "t": 0.1}
 #: Relative ridge on unit-norm columns: keeps directions the data never excite at zero.
 RIDGE = 1e-9
-#: Newton steps of a full fit at most, and of a cross-validation fold's fit, which starts at the full
-#: fit's optimum (a fold's optimum lies so close to it that the Newton model is all but exact there).
+#: Newton steps of a fit at most (a warm-started fit takes a few; a fold starts at the whole
+#: pool's optimum; the iteration stops when it promises less than 1e-12 of the cost).
 MAX_NEWTON_STEPS = 100
-FOLD_NEWTON_STEPS = 10
-#: Newton steps of a *quick* fit (the search's trial models): from the last exact fit of the same
-#: inertial terms, a model one move away; a move that is taken is refitted exactly.
-QUICK_NEWTON_STEPS = 3
 #: A parameter within this fraction of its range's width of a bound is at the bound.
 AT_BOUND = 1e-9
 
@@ -131,10 +127,9 @@ class Fitter:
     """Fits models of one layout on a pool's statistics with fixed joint weights."""
 
     def __init__(
-        self, arm: ArmModel, layout: ColumnLayout, pool: Pool, weights: np.ndarray, samples_per_effective: float, *, quick: bool = False
+        self, arm: ArmModel, layout: ColumnLayout, pool: Pool, weights: np.ndarray, samples_per_effective: float
     ) -> None:
         self.arm = arm
-        self.quick = quick
         self.layout = layout
         self.pool = pool
         self.weights = np.asarray(weights, dtype=float)
@@ -144,10 +139,9 @@ class Fitter:
         self._setups: dict[str, tuple] = {}
         self._cache: dict[tuple[Model, int], Fit] = {}
 
-    def with_weights(self, weights: np.ndarray, *, quick: bool = False) -> Fitter:
-        """A fitter of the same pool with other joint weights (it starts its fits where this one
-        ended); quick: inertial fits take at most QUICK_NEWTON_STEPS from the last exact fit."""
-        other = Fitter(self.arm, self.layout, self.pool, weights, self.lam, quick=quick)
+    def with_weights(self, weights: np.ndarray) -> Fitter:
+        """A fitter of the same pool with other joint weights (it starts its fits where this one ended)."""
+        other = Fitter(self.arm, self.layout, self.pool, weights, self.lam)
         other._warm, other._warm_x, other._setups = self._warm, self._warm_x, self._setups
         return other
 
@@ -437,15 +431,12 @@ class Fitter:
 
         if start is not None:
             z0 = start  # a fold starts from the whole pool's fit
-            steps = QUICK_NEWTON_STEPS if self.quick else FOLD_NEWTON_STEPS
         else:
-            # The last exact fit of each term (a neighbouring model's), else zero and the paper's values.
+            # The last fit of each term (a neighbouring model's), else zero and the paper's values.
             start_lin = np.array([self._warm_x.get(int(col), 0.0) for col in cols[lin_pos]])
             z0 = np.concatenate([np.maximum(lin_low, start_lin)] + [self._warm.get(blk[0], blk[2]).ravel() for blk in blocks])
-            known = all(blk[0] in self._warm for blk in blocks)
-            steps = QUICK_NEWTON_STEPS if self.quick and known else MAX_NEWTON_STEPS
         with np.errstate(over="ignore", invalid="ignore"):  # a rejected trial step may overflow exp(φ)
-            z, gauss, second = _box_newton(derivatives, z0, lo, hi, steps)
+            z, gauss, second = _box_newton(derivatives, z0, lo, hi, MAX_NEWTON_STEPS)
         if not np.all(np.isfinite(z)):
             raise DiagnosisError(f"the inertial fit of {', '.join(cands[t.candidate].name for t in model.terms)} did not converge")
         x = np.zeros(c)
@@ -466,9 +457,8 @@ class Fitter:
             kz += 10 * links_b
         if fold is not None:
             return Fit(model, x, np.zeros((c, c)), np.ones(c, dtype=bool), 0.0, phis, z=z)
-        if not self.quick:
-            self._warm.update(phis)
-            self._warm_x.update(zip(cols[lin_pos].tolist(), z[:n_lin].tolist()))
+        self._warm.update(phis)
+        self._warm_x.update(zip(cols[lin_pos].tolist(), z[:n_lin].tolist()))
         width = np.where(np.isfinite(hi - lo), hi - lo, 1.0)
         active = (np.isfinite(lo) & (z - lo <= AT_BOUND * width)) | (np.isfinite(hi) & (hi - z <= AT_BOUND * width))
         freev = ~active

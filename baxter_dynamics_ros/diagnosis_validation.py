@@ -40,7 +40,19 @@ from .effects import effects_from_dict
 from .recording import Recording
 from .simulator import SensorModel, SimulationSpec, simulate
 
-__all__ = ["SCENARIOS", "Scenario", "ScenarioOutcome", "confusion_markdown", "main", "run_scenario", "write_validation_page"]
+__all__ = [
+    "SCENARIOS",
+    "Scenario",
+    "ScenarioOutcome",
+    "clean_test_recordings",
+    "confusion_markdown",
+    "main",
+    "rigid_mse",
+    "run_scenario",
+    "simulated_recordings",
+    "validation_arm",
+    "write_validation_page",
+]
 
 #: (trajectory, seed) of the training and test recordings.
 TRAIN = (("random", 11), ("random", 12), ("paper_y", 13))
@@ -204,12 +216,12 @@ class ScenarioOutcome:
 
 
 @lru_cache(maxsize=1)
-def _arm() -> ArmModel:
+def validation_arm() -> ArmModel:
     return load_arm_model("right")
 
 
-def _recordings(scenario: Scenario, runs: tuple[tuple[str, int], ...], extra: tuple[dict[str, Any], ...], with_effects: bool = True) -> list[tuple[str, Recording]]:
-    arm = _arm()
+def simulated_recordings(scenario: Scenario, runs: tuple[tuple[str, int], ...], extra: tuple[dict[str, Any], ...], with_effects: bool = True) -> list[tuple[str, Recording]]:
+    arm = validation_arm()
     out = []
     for k, (trajectory, seed) in enumerate(runs):
         effects = dict(scenario.effects) if with_effects else {}
@@ -224,15 +236,15 @@ def _recordings(scenario: Scenario, runs: tuple[tuple[str, int], ...], extra: tu
 
 
 @lru_cache(maxsize=8)
-def _clean_test(runs: tuple[tuple[str, int], ...], rate_hz: float, sensor: SensorModel) -> tuple[tuple[str, Recording], ...]:
-    return tuple(_recordings(Scenario("clean", {}, test=runs, rate_hz=rate_hz, sensor=sensor), runs, (), with_effects=False))
+def clean_test_recordings(runs: tuple[tuple[str, int], ...], rate_hz: float, sensor: SensorModel) -> tuple[tuple[str, Recording], ...]:
+    return tuple(simulated_recordings(Scenario("clean", {}, test=runs, rate_hz=rate_hz, sensor=sensor), runs, (), with_effects=False))
 
 
 def rigid_mse(recordings) -> float:
     """Held-out squared error per sample of the rigid model with the paper's q̈, summed over joints."""
     from .acceleration import first_difference
 
-    arm = _arm()
+    arm = validation_arm()
     total, n = 0.0, 0
     for _, rec in recordings:
         qdd = first_difference(rec.qd, rec.stamps_s)
@@ -244,13 +256,13 @@ def rigid_mse(recordings) -> float:
 def run_scenario(scenario: Scenario) -> ScenarioOutcome:
     """Simulate the scenario, diagnose it blind, and compare with what was injected."""
     n_train = len(scenario.train)
-    train = _recordings(scenario, scenario.train, scenario.per_recording[:n_train])
-    test = _recordings(scenario, scenario.test, scenario.per_recording[n_train:])
-    result = diagnose(_arm(), train, test)
+    train = simulated_recordings(scenario, scenario.train, scenario.per_recording[:n_train])
+    test = simulated_recordings(scenario, scenario.test, scenario.per_recording[n_train:])
+    result = diagnose(validation_arm(), train, test)
     mse_final = float(np.sum(result.final_test_rms**2))
     ranking = tuple(e.name for e in result.effects)
     selected = tuple(e.name for e in result.effects if e.selected)
-    clean = _clean_test(scenario.test, scenario.rate_hz, scenario.sensor)
+    clean = clean_test_recordings(scenario.test, scenario.rate_hz, scenario.sensor)
     return ScenarioOutcome(scenario, ranking, selected, rigid_mse(clean), rigid_mse(test), mse_final, result, tuple(train), tuple(test))
 
 
