@@ -233,9 +233,6 @@ class DiagnosisResult:
 
 
 # ----------------------------------------------------------------------------- helpers
-#: An effort this close to constant at a joint (SD, N·m: a few steps of Baxter's 0.004 N·m
-#: quantisation) is a sensor that did not respond; nothing can be diagnosed there.
-CONSTANT_EFFORT_NM = 0.01
 #: The effort must follow the rigid-body torque at one joint at least this well (correlation):
 #: on the real recordings the best joint reaches 0.99 in every file, pure noise stays below 0.1.
 MIN_MODEL_CORRELATION = 0.5
@@ -254,15 +251,14 @@ def _check(arm: ArmModel, train: Sequence[tuple[str, Recording]], test: Sequence
     except RecordingError as err:
         raise DiagnosisError(str(err)) from err
     for label, rec in (*train, *test):
-        spread = rec.effort.std(axis=0)
-        flat = [n for n, sd in zip(arm.joint_names, spread) if sd < CONSTANT_EFFORT_NM]
+        flat = [n for n, span in zip(arm.joint_names, np.ptp(rec.effort, axis=0)) if span == 0.0]
         if flat:
             raise DiagnosisError(
-                f"{label}: the effort of {', '.join(flat)} never changes (SD below {CONSTANT_EFFORT_NM:g} N·m): "
+                f"{label}: the effort of {', '.join(flat)} is the same in every sample: "
                 "a torque sensor that does not respond; the diagnosis needs every joint's effort"
             )
         tau = arm.inverse_dynamics(rec.q, rec.qd, zero_phase_acceleration(rec.qd, rec.rate_hz, min(4.0, 0.4 * rec.rate_hz)))
-        moving = tau.std(axis=0) > CONSTANT_EFFORT_NM
+        moving = np.ptp(tau, axis=0) > 0.0
         corr = [abs(float(np.corrcoef(rec.effort[:, j], tau[:, j])[0, 1])) for j in np.flatnonzero(moving)]
         if not corr or max(corr) < MIN_MODEL_CORRELATION:
             raise DiagnosisError(
