@@ -118,7 +118,6 @@ class Fit:
     df: float
     phi: dict[int, np.ndarray] = field(default_factory=dict)
     phi_cov: dict[int, np.ndarray] = field(default_factory=dict)
-    phi_data_share: dict[int, np.ndarray] = field(default_factory=dict)
     z: np.ndarray | None = None  # the inertial fit's variables (linear parameters, then φ)
     offsets: dict[str, np.ndarray] = field(default_factory=dict)  # each training recording's own offsets
 
@@ -272,7 +271,7 @@ class Fitter:
         cov[off_at, off_at] = self.lam / (self.weights[joints] * n) + between
         names = list(self.pool.recordings_without(fold))
         return Fit(
-            model, x, cov, free, inner.df + len(joints), inner.phi, inner.phi_cov, inner.phi_data_share, inner.z,
+            model, x, cov, free, inner.df + len(joints), inner.phi, inner.phi_cov, inner.z,
             offsets={name: row for name, row in zip(names, per_recording)},
         )  # fmt: skip
 
@@ -470,19 +469,16 @@ class Fitter:
             second = np.zeros_like(second)
         Kd = K - np.diag(prior_curv[freev])
         inv = np.linalg.inv(K)
-        share_all = np.zeros(n_z)
-        share_all[freev] = np.einsum("ij,ji->i", inv, Kd)
+        df = float(np.einsum("ij,ji->", inv, Kd))  # tr((K_d + P)⁻¹ K_d): what the data decide
         cov_z = np.zeros((n_z, n_z))
         cov_z[np.ix_(freev, freev)] = self.lam * inv
         free = np.zeros(c, dtype=bool)
         free[lin_pos] = freev[:n_lin]
-        phi_cov, share = {}, {}
+        phi_cov = {}
         for cand_index, first_col, phi0_b, *_ in blocks:
-            sl = spans[cand_index]
-            phi_cov[cand_index] = cov_z[sl, sl]
-            share[cand_index] = share_all[sl].reshape(len(phi0_b), 10)
+            phi_cov[cand_index] = cov_z[spans[cand_index], spans[cand_index]]
             free[first_col : first_col + 10 * len(phi0_b)] = True
-        return Fit(model, x, dx @ cov_z @ dx.T, free, float(share_all.sum()), phis, phi_cov, share, z)
+        return Fit(model, x, dx @ cov_z @ dx.T, free, df, phis, phi_cov, z)
 
 
 def _prior_std(spec: dict[str, float], gyration_m: float) -> np.ndarray:
