@@ -59,6 +59,8 @@ RATE_HZ = 100.0
 DELAY_BUDGET_S = 0.1  # the goal is a median of 50 ms
 RELEASE_BUDGET_S = 1.0
 TIMEOUT_S = 60.0
+#: Samples at the start of a playback within which the node may still reset for the /clock jump back.
+RESTART_WINDOW = 10
 
 
 def _ns(stamp) -> int:
@@ -220,7 +222,14 @@ def test_no_collision_on_a_collision_free_recording(listener: SimTimeListener, r
     assert thresholds.effort_delay_s < 0
     rec = read_recording(recordings.free)
     got = {_ns(m.header.stamp): np.array(m.effort) for m in played.external_torque}
-    first = int(np.searchsorted(rec.stamps_ns, min(got)))  # the observer restarted there (sample 0 or 1)
+    # The observer restarts (r = 0 exactly) where the node last reset at the start: at its first
+    # sample, and once more when the /clock jump back (read on another thread than the joint states)
+    # is handled after the first samples of this playback, as it may be on a loaded machine. Only
+    # restarts within the first RESTART_WINDOW samples are taken as such; any later zero row fails.
+    answered = [int(np.searchsorted(rec.stamps_ns, stamp)) for stamp in sorted(got)]
+    restarts = [k for k in answered[:RESTART_WINDOW] if not np.any(got[int(rec.stamps_ns[k])])]
+    assert restarts, f"no restart (r = 0) among the first {RESTART_WINDOW} samples answered"
+    first = restarts[-1]
     part = slice(first, None)
     expected = observe_arrays(
         load_arm_model("right"), rec.stamps_ns[part], rec.q[part], rec.qd[part], rec.effort[part],
