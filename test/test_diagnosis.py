@@ -35,6 +35,8 @@ from baxter_dynamics_ros.diagnosis.validation import (
     run_scenario,
     single_effect,
 )
+from baxter_dynamics_ros.diagnosis.validation import TEST as TEST_RUNS
+from baxter_dynamics_ros.diagnosis.validation import TRAIN as TRAIN_RUNS
 
 REAL = Path(__file__).resolve().parent.parent.parent / "shared" / "data" / "baxter_real"
 REAL_FILES = sorted(REAL.glob("*.csv"))
@@ -126,6 +128,12 @@ def test_real_inertial_fit_stays_physical(real_recordings) -> None:
         assert np.all(np.abs(after.com_m - before.com_m) <= COM_BOX_M + 1e-9)
         assert np.all(np.linalg.eigvalsh(changed.pseudo_inertias) > 0)
     assert all("set_by_prior" in link and "before" in link for link in inertial.inertial)
+    # What a bound decided is said so, with no uncertainty, and is not called decided by the data.
+    for link, before in zip(inertial.inertial, arm.links):
+        com = np.array(link["com_m"])
+        at_box = [q for q, d in zip(("com x", "com y", "com z"), np.abs(com - before.com_m)) if d >= COM_BOX_M - 1e-6]
+        assert set(at_box) <= set(link["at_bound"]), (link["link"], at_box, link["at_bound"])
+        assert all(link["std"][q] is None for q in link["at_bound"])
 
 
 # ----------------------------------------------------------------------------- withheld effects
@@ -168,6 +176,42 @@ def test_drifting_offsets_are_reported_as_drift() -> None:
     assert set(doc["offset_drift"]["joints"]) == set(drift["drifting"])
 
 
+def test_drift_at_a_joint_other_than_s0_is_found() -> None:
+    """Offsets of 0.3, 0.6 and 0.9 N·m at e1 in three recordings: recovered per recording, said to drift."""
+    from baxter_dynamics_ros.diagnosis_validation import simulated_recordings, validation_arm
+
+    per = tuple({"torque_offset": {"offset_nm": [0, 0, 0, e1, 0, 0, 0]}} for e1 in (0.3, 0.6, 0.9, 0.6, 0.6))
+    scenario = Scenario("e1 offsets", {}, per_recording=per)
+    train = simulated_recordings(scenario, scenario.train, per[:3])
+    test = simulated_recordings(scenario, scenario.test, per[3:])
+    result = diagnose(validation_arm(), train, test)
+    offset = next(e for e in result.selected() if e.name == "torque_offset")
+    assert offset.joints == ("right_e1",)
+    fitted = [v[0] for v in offset.drift["per_recording_nm"].values()]
+    np.testing.assert_allclose(fitted, [0.3, 0.6, 0.9], atol=0.02)
+    assert offset.drift["drifting"] == ["right_e1"]
+
+
+def test_effort_that_is_not_this_arms_torque_is_refused() -> None:
+    """A recording whose effort is noise, or with a joint whose effort never changes, cannot be
+    diagnosed: refused, naming the recording (and the joint)."""
+    from baxter_dynamics_ros.diagnosis_validation import simulated_recordings, validation_arm
+    from baxter_dynamics_ros.errors import DiagnosisError
+    from baxter_dynamics_ros.recording import Recording
+
+    train = simulated_recordings(Scenario("rigid", {}), TRAIN_RUNS, ())
+    test = simulated_recordings(Scenario("rigid", {}), TEST_RUNS, ())
+    label, rec = train[0]
+    noise = Recording(rec.side, rec.joint_names, rec.stamps_ns, rec.q, rec.qd, np.random.default_rng(0).normal(0.0, 0.5, rec.effort.shape))
+    with pytest.raises(DiagnosisError, match=r"noise-0: the effort follows the rigid-body torque at no joint"):
+        diagnose(validation_arm(), [("noise-0", noise), *train[1:]], test)
+    flat = rec.effort.copy()
+    flat[:, 5] = 0.3
+    stuck = Recording(rec.side, rec.joint_names, rec.stamps_ns, rec.q, rec.qd, flat)
+    with pytest.raises(DiagnosisError, match=r"stuck: the effort of right_w1 is the same in every sample"):
+        diagnose(validation_arm(), train, [("stuck", stuck)])
+
+
 def test_per_joint_effects_act_only_where_they_pay() -> None:
     """Viscous friction at s0 and e1 only: selected at those joints, zero elsewhere in effects.yaml."""
     damping = [1.5, 0.0, 0.0, 0.8, 0.0, 0.0, 0.0]
@@ -186,11 +230,11 @@ def test_a_set_that_does_not_carry_over_is_said_to() -> None:
     the verdict says so per joint and in plain words at the top."""
     gripper = {"payload": {"mass_kg": 1.5, "com_m": [0.0, 0.0, 0.1]}}
     scenario = Scenario("gripper in training only", gripper, per_recording=())
-    from baxter_dynamics_ros.diagnosis.validation import scenario_recordings
+    from baxter_dynamics_ros.diagnosis.validation import simulated_recordings, validation_arm
 
-    train = scenario_recordings(scenario, scenario.train, ())
-    test = scenario_recordings(Scenario("no gripper", {}), scenario.test, ())
-    result = diagnose(load_arm_model("right"), train, test)
+    train = simulated_recordings(scenario, scenario.train, ())
+    test = simulated_recordings(Scenario("no gripper", {}), scenario.test, ())
+    result = diagnose(validation_arm(), train, test)
     payload = next(e for e in result.selected() if e.name == "payload")
     assert any(v["verdict"] == "hurt" for v in payload.test_verdict.values())
     assert result.worse_joints
@@ -230,7 +274,10 @@ def test_diagnose_command_writes_report_json_and_effects(tmp_path: Path) -> None
     done = run_cli("diagnose", "--train", *train, "--test", str(REAL_FILES[0]), "--out", str(out))
     assert done.returncode == 0, done.stderr
     assert "report:" in done.stdout
-    doc = json.loads((out / "diagnosis.json").read_text())
+    def no_nan(name: str) -> None:
+        raise AssertionError(f"diagnosis.json holds {name}, which JSON does not have")
+
+    doc = json.loads((out / "diagnosis.json").read_text(), parse_constant=no_nan)
     assert doc["joints"] == [f"left_{j}" for j in ("s0", "s1", "e0", "e1", "w0", "w1", "w2")]
     assert len(doc["baseline"]["test_rms"]) == 7 and len(doc["final"]["test_rms"]) == 7 and len(doc["denoised"]["test_rms"]) == 7
     keys = {"name", "joints", "params", "params_std", "params_fold_spread", "test_rms_after", "selected", "uncertain", "folds_selected", "folds", "share_nm2", "test_verdict"}

@@ -25,7 +25,6 @@ import numpy as np
 from numba import njit
 
 __all__ = [
-    "LOG_CHOLESKY_NAMES",
     "contraction_hessian",
     "log_cholesky_from_pseudo",
     "parameters_from_log_cholesky",
@@ -33,8 +32,6 @@ __all__ = [
     "pseudo_from_log_cholesky",
 ]
 
-#: Names of φ's coordinates, in order.
-LOG_CHOLESKY_NAMES = ("alpha", "d1", "d2", "d3", "s12", "s23", "s13", "t1", "t2", "t3")
 #: Where the off-diagonal coordinates sit in U (row, column).
 _OFF_DIAGONAL = ((0, 1), (1, 2), (0, 2))
 

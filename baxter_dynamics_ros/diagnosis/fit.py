@@ -65,13 +65,9 @@ PAYLOAD_PRIOR_MEAN = {"mass_kg": 1.0, "com_m": (0.0, 0.0, 0.05), "gyration_m": 0
 PAYLOAD_PRIOR_STD = {"alpha": 1.0, "d": 0.7, "s": 1.0, "t": 0.1}
 #: Relative ridge on unit-norm columns: keeps directions the data never excite at zero.
 RIDGE = 1e-9
-#: Newton steps of a full fit at most, and of a cross-validation fold's fit, which starts at the full
-#: fit's optimum (a fold's optimum lies so close to it that the Newton model is all but exact there).
+#: Newton steps of a fit at most (a warm-started fit takes a few; a fold starts at the whole
+#: pool's optimum; the iteration stops when it promises less than 1e-12 of the cost).
 MAX_NEWTON_STEPS = 100
-FOLD_NEWTON_STEPS = 10
-#: Newton steps of a *quick* fit (the search's trial models): from the last exact fit of the same
-#: inertial terms, a model one move away; a move that is taken is refitted exactly.
-QUICK_NEWTON_STEPS = 3
 #: A parameter within this fraction of its range's width of a bound is at the bound.
 AT_BOUND = 1e-9
 
@@ -124,7 +120,6 @@ class Fit:
     df: float
     phi: dict[int, np.ndarray] = field(default_factory=dict)
     phi_cov: dict[int, np.ndarray] = field(default_factory=dict)
-    phi_data_share: dict[int, np.ndarray] = field(default_factory=dict)
     z: np.ndarray | None = None  # the inertial fit's variables (linear parameters, then φ)
     offsets: dict[str, np.ndarray] = field(default_factory=dict)  # each training recording's own offsets
 
@@ -133,10 +128,9 @@ class Fitter:
     """Fits models of one layout on a pool's statistics with fixed joint weights."""
 
     def __init__(
-        self, arm: ArmModel, layout: ColumnLayout, pool: Pool, weights: np.ndarray, samples_per_effective: float, *, quick: bool = False
+        self, arm: ArmModel, layout: ColumnLayout, pool: Pool, weights: np.ndarray, samples_per_effective: float
     ) -> None:
         self.arm = arm
-        self.quick = quick
         self.layout = layout
         self.pool = pool
         self.weights = np.asarray(weights, dtype=float)
@@ -146,10 +140,9 @@ class Fitter:
         self._setups: dict[str, tuple] = {}
         self._cache: dict[tuple[Model, int], Fit] = {}
 
-    def with_weights(self, weights: np.ndarray, *, quick: bool = False) -> Fitter:
-        """A fitter of the same pool with other joint weights (it starts its fits where this one
-        ended); quick: inertial fits take at most QUICK_NEWTON_STEPS from the last exact fit."""
-        other = Fitter(self.arm, self.layout, self.pool, weights, self.lam, quick=quick)
+    def with_weights(self, weights: np.ndarray) -> Fitter:
+        """A fitter of the same pool with other joint weights (it starts its fits where this one ended)."""
+        other = Fitter(self.arm, self.layout, self.pool, weights, self.lam)
         other._warm, other._warm_x, other._setups = self._warm, self._warm_x, self._setups
         return other
 
@@ -280,7 +273,7 @@ class Fitter:
         cov[off_at, off_at] = self.lam / (self.weights[joints] * n) + between
         names = list(self.pool.recordings_without(fold))
         return Fit(
-            model, x, cov, free, inner.df + len(joints), inner.phi, inner.phi_cov, inner.phi_data_share, inner.z,
+            model, x, cov, free, inner.df + len(joints), inner.phi, inner.phi_cov, inner.z,
             offsets={name: row for name, row in zip(names, per_recording)},
         )  # fmt: skip
 
@@ -439,15 +432,12 @@ class Fitter:
 
         if start is not None:
             z0 = start  # a fold starts from the whole pool's fit
-            steps = QUICK_NEWTON_STEPS if self.quick else FOLD_NEWTON_STEPS
         else:
-            # The last exact fit of each term (a neighbouring model's), else zero and the paper's values.
+            # The last fit of each term (a neighbouring model's), else zero and the paper's values.
             start_lin = np.array([self._warm_x.get(int(col), 0.0) for col in cols[lin_pos]])
             z0 = np.concatenate([np.maximum(lin_low, start_lin)] + [self._warm.get(blk[0], blk[2]).ravel() for blk in blocks])
-            known = all(blk[0] in self._warm for blk in blocks)
-            steps = QUICK_NEWTON_STEPS if self.quick and known else MAX_NEWTON_STEPS
         with np.errstate(over="ignore", invalid="ignore"):  # a rejected trial step may overflow exp(φ)
-            z, gauss, second = _box_newton(derivatives, z0, lo, hi, steps)
+            z, gauss, second = _box_newton(derivatives, z0, lo, hi, MAX_NEWTON_STEPS)
         if not np.all(np.isfinite(z)):
             raise DiagnosisError(f"the inertial fit of {', '.join(cands[t.candidate].name for t in model.terms)} did not converge")
         x = np.zeros(c)
@@ -468,9 +458,8 @@ class Fitter:
             kz += 10 * links_b
         if fold is not None:
             return Fit(model, x, np.zeros((c, c)), np.ones(c, dtype=bool), 0.0, phis, z=z)
-        if not self.quick:
-            self._warm.update(phis)
-            self._warm_x.update(zip(cols[lin_pos].tolist(), z[:n_lin].tolist()))
+        self._warm.update(phis)
+        self._warm_x.update(zip(cols[lin_pos].tolist(), z[:n_lin].tolist()))
         width = np.where(np.isfinite(hi - lo), hi - lo, 1.0)
         active = (np.isfinite(lo) & (z - lo <= AT_BOUND * width)) | (np.isfinite(hi) & (hi - z <= AT_BOUND * width))
         freev = ~active
@@ -482,19 +471,16 @@ class Fitter:
             second = np.zeros_like(second)
         Kd = K - np.diag(prior_curv[freev])
         inv = np.linalg.inv(K)
-        share_all = np.zeros(n_z)
-        share_all[freev] = np.einsum("ij,ji->i", inv, Kd)
+        df = float(np.einsum("ij,ji->", inv, Kd))  # tr((K_d + P)⁻¹ K_d): what the data decide
         cov_z = np.zeros((n_z, n_z))
         cov_z[np.ix_(freev, freev)] = self.lam * inv
         free = np.zeros(c, dtype=bool)
         free[lin_pos] = freev[:n_lin]
-        phi_cov, share = {}, {}
+        phi_cov = {}
         for cand_index, first_col, phi0_b, *_ in blocks:
-            sl = spans[cand_index]
-            phi_cov[cand_index] = cov_z[sl, sl]
-            share[cand_index] = share_all[sl].reshape(len(phi0_b), 10)
+            phi_cov[cand_index] = cov_z[spans[cand_index], spans[cand_index]]
             free[first_col : first_col + 10 * len(phi0_b)] = True
-        return Fit(model, x, dx @ cov_z @ dx.T, free, float(share_all.sum()), phis, phi_cov, share, z)
+        return Fit(model, x, dx @ cov_z @ dx.T, free, df, phis, phi_cov, z)
 
 
 def _prior_std(spec: dict[str, float], gyration_m: float) -> np.ndarray:

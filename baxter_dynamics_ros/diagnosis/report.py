@@ -121,9 +121,12 @@ def _fmt_params(e) -> str:
     fitted = [(k, v) for k, v in e.params.items() if abs(v) > 0] if e.selected else []
     # The inertial change's many parameters: the largest here, all of them in diagnosis.json.
     shown = sorted(fitted, key=lambda kv: -abs(kv[1]))[:MAX_PARAMS_SHOWN] if len(fitted) > MAX_PARAMS_SHOWN else fitted
-    text = ", ".join(
-        f"{k} = {v:.4g}" + (f" ± {e.params_std[k]:.2g}" if k in e.params_std and np.isfinite(e.params_std[k]) else "") for k, v in shown
-    )
+    def sd(k: str) -> str:
+        if k not in e.params_std:
+            return ""
+        return f" ± {e.params_std[k]:.2g}" if np.isfinite(e.params_std[k]) else " (at its bound)"
+
+    text = ", ".join(f"{k} = {v:.4g}{sd(k)}" for k, v in shown)
     return (text + (", … (all in diagnosis.json)" if len(shown) < len(fitted) else "")) or "—"
 
 
@@ -138,10 +141,11 @@ def _inertial_section(result: DiagnosisResult) -> str:
                 [
                     e.name,
                     link["link"],
-                    (f"{before['mass_kg']:.3f} → " if before else "") + f"{link['mass_kg']:.3f} ± {link['std']['mass']:.2g}",
+                    (f"{before['mass_kg']:.3f} → " if before else "") + f"{link['mass_kg']:.3f}"
+                    + (f" ± {link['std']['mass']:.2g}" if link["std"]["mass"] is not None else " (at its bound)"),
                     (("(" + ", ".join(f"{v:+.4f}" for v in before["com_m"]) + ") → ") if before else "") + f"({com})",
                     (("(" + ", ".join(f"{v:.2e}" for v in before["inertia_about_com_kgm2"]) + ") → ") if before else "") + f"({inertia})",
-                    ", ".join(link["set_by_prior"]) or "none",
+                    ", ".join([*link["set_by_prior"], *(f"{q} (at its bound)" for q in link["at_bound"])]) or "none",
                 ]
             )
     if not rows:
@@ -196,7 +200,7 @@ def _html(result: DiagnosisResult, plots: dict[str, Path]) -> str:
             ]  # fmt: skip
         )
     effects = _table(
-        ["rank", "effect", "selected", "variant", "joints", "share of the gap [N·m² / sample]", "held-out gain [N·m² / sample]", "folds selecting it", "fitted parameters (± SD)", "why"],
+        ["rank", "effect", "selected", "variant", "joints", "share of the gap [N·m² / sample]", "cross-validated gain on the training data [N·m² / sample] (acceleration_noise: no fit)", "folds selecting it", "fitted parameters (± SD)", "why"],
         effect_rows,
     )
     shrink_rows = [["rigid model, raw q̈"] + [f"{v:.3f}" for v in base]]
@@ -262,6 +266,18 @@ fewer than {STABLE_FRACTION:.0%} is <i>uncertain</i>.</p>
 """
 
 
+def _json_ready(value):
+    """The value with every non-finite float as None (JSON has no NaN: a band without samples, an
+    uncertainty a bound decided, is null)."""
+    if isinstance(value, dict):
+        return {k: _json_ready(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_ready(v) for v in value]
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    return value
+
+
 def effects_yaml(result: DiagnosisResult) -> str:
     """effects.yaml: the selected effects (zero at the joints they do not act on), and beside them
     the joints each acts on, the uncertain ones, the q̈ filter they were fitted with and drifting offsets."""
@@ -292,7 +308,7 @@ def write_diagnosis(result: DiagnosisResult, out_dir: str | os.PathLike[str]) ->
 
 
 def _write_all(result: DiagnosisResult, paths: dict[str, Path]) -> None:
-    paths["diagnosis.json"].write_text(json.dumps(result.to_dict(), indent=2), encoding="utf-8")
+    paths["diagnosis.json"].write_text(json.dumps(_json_ready(result.to_dict()), indent=2, allow_nan=False), encoding="utf-8")
     paths["effects.yaml"].write_text(effects_yaml(result), encoding="utf-8")
     _plot_residuals(result, paths["residual_over_time.png"])
     _plot_regimes(result, paths["regimes.png"])

@@ -43,7 +43,7 @@ from ..core.joints import S1
 from .fit import DECORRELATION_S, Fit, Fitter, Model, Term
 from .statistics import ColumnLayout, Pool
 
-__all__ = ["Evaluation", "Selection", "select"]
+__all__ = ["FAMILY_OF", "Evaluation", "Selection", "explain_unselected", "select"]
 
 #: A kept term must cut some joint's held-out squared error by this fraction and its held-out RMS
 #: by MIN_JOINT_GAIN_NM (the effort's quantisation is 0.004 N·m).
@@ -55,6 +55,8 @@ SIGNIFICANCE = 0.95
 SIGMA2_FLOOR = 1e-6
 #: Families of effects that are alternatives of each other (at most one per joint).
 FAMILIES = ({"payload", "inertial_error"}, {"coulomb_friction", "stribeck_friction"})
+#: Each family member's alternatives.
+FAMILY_OF = {name: family - {name} for family in FAMILIES for name in family}
 MAX_MOVES = 60
 #: A move must lower the score by this much (half of one parameter's penalty), so that the search
 #: does not swap between alternatives that explain the data equally well.
@@ -87,7 +89,7 @@ class Selection:
 
 
 def _family(name: str) -> set[str]:
-    return next((f for f in FAMILIES if name in f), {name})
+    return FAMILY_OF.get(name, set()) | {name}
 
 
 class _Search:
@@ -96,7 +98,6 @@ class _Search:
         n_eff = max(pool.duration_s / DECORRELATION_S, 1.0)
         self.lam = pool.samples / n_eff  # samples per effective sample
         self.fitter = Fitter(arm, layout, pool, np.ones(N), self.lam)
-        self.trial = self.fitter.with_weights(self.fitter.weights, quick=True)
         self.visited: set[Model] = set()
         self.moves: list[str] = []
 
@@ -115,12 +116,11 @@ class _Search:
         for _ in range(2):
             cv, _, _ = self.fitter.cv_sse(model)
             self.fitter = self.fitter.with_weights(1.0 / np.maximum(cv / self.pool.samples, SIGMA2_FLOOR))
-        self.trial = self.fitter.with_weights(self.fitter.weights, quick=True)
-        return self.evaluate(model, exact=True)
+        return self.evaluate(model)
 
-    def evaluate(self, model: Model, exact: bool = False) -> Evaluation:
-        """The model's evaluation; trial models (exact False) are fitted quickly (``Fitter.quick``)."""
-        fitter = self.fitter if exact else self.trial
+    def evaluate(self, model: Model) -> Evaluation:
+        """The model's fit, cross-validated error and score under the current weights."""
+        fitter = self.fitter
         model = self.canonical(model)
         cv, folds, per_fold = fitter.cv_sse(model)
         fit = fitter.fit(model)
@@ -339,21 +339,18 @@ class _Search:
             else:
                 return current
 
-    def run(self, start: Model | None = None) -> Selection:
-        """The search from the empty model (or from ``start``, backward moves first)."""
-        current = self.reweight(start or Model())
+    def run(self) -> Selection:
+        """The search from the empty model."""
+        current = self.reweight(Model())
         self.visited.add(current.model)
-        backward_first = start is not None
         for _ in range(MAX_MOVES):
-            if not backward_first:
-                options = [(ev.score, label, ev) for label, ev in self.add_moves(current) if ev.model not in self.visited and self.preferred(current, ev)]
-                best = min(options, key=lambda o: o[0], default=None)
-                if best is None:
-                    break
-                self.moves.append(best[1])
-                current = self.reweight(best[2].model)
-                self.visited.add(current.model)
-            backward_first = False
+            options = [(ev.score, label, ev) for label, ev in self.add_moves(current) if ev.model not in self.visited and self.preferred(current, ev)]
+            best = min(options, key=lambda o: o[0], default=None)
+            if best is None:
+                break
+            self.moves.append(best[1])
+            current = self.reweight(best[2].model)
+            self.visited.add(current.model)
             while True:
                 options = [
                     (ev.score, label, ev)
@@ -366,16 +363,15 @@ class _Search:
                 self.moves.append(best[1])
                 # The weights stay those of the last addition through the backward phase, so that its
                 # moves all improve one fixed criterion and cannot cycle.
-                current = self.evaluate(best[2].model, exact=True)
+                current = self.evaluate(best[2].model)
                 self.visited.add(current.model)
         current = self.prune(current)
         return Selection(current.model, current, self.fitter, tuple(self.moves))
 
 
-def select(arm: ArmModel, layout: ColumnLayout, pool: Pool, start: Model | None = None) -> Selection:
-    """Run the stepwise selection on a pool of training blocks (module docstring); from ``start``
-    (a model of the same layout) instead of the empty model when given."""
-    return _Search(arm, layout, pool).run(start)
+def select(arm: ArmModel, layout: ColumnLayout, pool: Pool) -> Selection:
+    """Run the stepwise selection on a pool of training blocks (module docstring)."""
+    return _Search(arm, layout, pool).run()
 
 
 def explain_unselected(
@@ -385,7 +381,6 @@ def explain_unselected(
     None, why it is not selected), judged as the search would, under the final model's weights."""
     search = _Search(arm, layout, pool)
     search.fitter = fitter
-    search.trial = fitter
     selected = {layout.candidates[t.candidate].name for t in final.model.terms}
     out: dict[str, tuple[str, Evaluation | None, str]] = {}
     for index, cand in enumerate(layout.candidates):
@@ -393,10 +388,14 @@ def explain_unselected(
             continue
         label, trial, why = search.try_add(final, index)
         if label:
-            why = (
-                f"adding it at the end would {'lower' if trial.score < final.score else 'raise'} the score by "
-                f"{abs(final.score - trial.score):.3g}, less than a move must"
-            )
+            change = trial.score - final.score
+            if search.preferred(final, trial):
+                why = (
+                    f"adding it to the selected set would lower the score by {-change:.3g}, yet the search, "
+                    "which tried it in other company, ended without it"
+                )
+            else:
+                why = f"adding it to the selected set would {'lower' if change < 0 else 'raise'} the score by {abs(change):.3g}, not the {MOVE_TOLERANCE:g} a move must gain"
         previous = out.get(cand.name)
         score = trial.score if trial is not None else np.inf
         if previous is None or (previous[1] is None and trial is not None) or (trial is not None and previous[1] is not None and score < previous[1].score):

@@ -92,9 +92,6 @@ class ColumnLayout:
     #: The distinct column blocks: (template, first column, width); payload has none of its own.
     blocks: tuple[tuple[Effect, int, int], ...]
 
-    def by_name(self, name: str) -> tuple[Candidate, ...]:
-        return tuple(c for c in self.candidates if c.name == name)
-
 
 def column_layout() -> ColumnLayout:
     """The candidates of the diagnosis, in the order of :data:`~baxter_dynamics_ros.core.effects.EFFECTS`."""

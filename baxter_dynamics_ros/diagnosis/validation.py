@@ -50,8 +50,9 @@ __all__ = [
     "real_rotations_page",
     "rigid_mse",
     "run_scenario",
-    "scenario_recordings",
+    "simulated_recordings",
     "single_effect",
+    "validation_arm",
     "write_validation_page",
 ]
 
@@ -217,12 +218,12 @@ class ScenarioOutcome:
 
 
 @lru_cache(maxsize=1)
-def _arm() -> ArmModel:
+def validation_arm() -> ArmModel:
     return load_arm_model("right")
 
 
-def scenario_recordings(scenario: Scenario, runs: tuple[tuple[str, int], ...], extra: tuple[dict[str, Any], ...], with_effects: bool = True) -> list[tuple[str, Recording]]:
-    arm = _arm()
+def simulated_recordings(scenario: Scenario, runs: tuple[tuple[str, int], ...], extra: tuple[dict[str, Any], ...], with_effects: bool = True) -> list[tuple[str, Recording]]:
+    arm = validation_arm()
     out = []
     for k, (trajectory, seed) in enumerate(runs):
         effects = dict(scenario.effects) if with_effects else {}
@@ -238,14 +239,14 @@ def scenario_recordings(scenario: Scenario, runs: tuple[tuple[str, int], ...], e
 
 @lru_cache(maxsize=8)
 def clean_test_recordings(runs: tuple[tuple[str, int], ...], rate_hz: float, sensor: SensorModel) -> tuple[tuple[str, Recording], ...]:
-    return tuple(scenario_recordings(Scenario("clean", {}, test=runs, rate_hz=rate_hz, sensor=sensor), runs, (), with_effects=False))
+    return tuple(simulated_recordings(Scenario("clean", {}, test=runs, rate_hz=rate_hz, sensor=sensor), runs, (), with_effects=False))
 
 
 def rigid_mse(recordings) -> float:
     """Held-out squared error per sample of the rigid model with the paper's q̈, summed over joints."""
     from ..core.acceleration import first_difference
 
-    arm = _arm()
+    arm = validation_arm()
     total, n = 0.0, 0
     for _, rec in recordings:
         qdd = first_difference(rec.qd, rec.stamps_s)
@@ -257,9 +258,9 @@ def rigid_mse(recordings) -> float:
 def run_scenario(scenario: Scenario) -> ScenarioOutcome:
     """Simulate the scenario, diagnose it blind, and compare with what was injected."""
     n_train = len(scenario.train)
-    train = scenario_recordings(scenario, scenario.train, scenario.per_recording[:n_train])
-    test = scenario_recordings(scenario, scenario.test, scenario.per_recording[n_train:])
-    result = diagnose(_arm(), train, test)
+    train = simulated_recordings(scenario, scenario.train, scenario.per_recording[:n_train])
+    test = simulated_recordings(scenario, scenario.test, scenario.per_recording[n_train:])
+    result = diagnose(validation_arm(), train, test)
     mse_final = float(np.sum(result.final_test_rms**2))
     ranking = tuple(e.name for e in result.effects)
     selected = tuple(e.name for e in result.effects if e.selected)
