@@ -63,12 +63,12 @@ class JointStateReader:
         except (ValueError, UnicodeDecodeError):
             return False
         if self._layout is None or layout.names != self._layout.names:
-            self._index = self._index_map(list(layout.names))
+            self._index = self.index_map(list(layout.names))
         self._layout, self._template, self._structure = layout, raw, true_runs(layout.structure)
         self._stamp = struct.Struct(layout.endian + "iI")
         return True
 
-    def _index_map(self, names: list[str]) -> np.ndarray | SkipReason:
+    def index_map(self, names: list[str]) -> np.ndarray | SkipReason:
         """(7,) positions of the arm's joints in ``names``; MISSING_JOINT if one is absent or repeated."""
         if any(names.count(joint) != 1 for joint in self.joint_names):
             return SkipReason.MISSING_JOINT

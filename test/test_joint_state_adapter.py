@@ -82,8 +82,8 @@ def test_reader_reads_big_endian_cdr_from_another_serializer() -> None:
 def test_reader_rebuilds_its_index_map_only_when_the_names_change(monkeypatch: pytest.MonkeyPatch) -> None:
     reader = JointStateReader(ARM.joint_names)
     builds = []
-    original = reader._index_map
-    monkeypatch.setattr(reader, "_index_map", lambda names: builds.append(list(names)) or original(names))
+    original = reader.index_map
+    monkeypatch.setattr(reader, "index_map", lambda names: builds.append(list(names)) or original(names))
     for k in range(3):
         assert_arm_values(reader.read(cdr(stamp=STAMP_NS + k)))
     assert_arm_values(reader.read(cdr(frame_id="elsewhere")))  # new layout, same names
