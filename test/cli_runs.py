@@ -10,8 +10,8 @@ from __future__ import annotations
 import subprocess
 import sys
 from pathlib import Path
+from repo_paths import REPO
 
-REPO = Path(__file__).resolve().parent.parent
 
 
 def run_cli(*args: str | Path, timeout_s: float = 600.0) -> subprocess.CompletedProcess:

@@ -33,8 +33,8 @@ from typing import Any
 import pytest
 
 from baxter_dynamics_ros.ros.ros_env import isolated_ros_env, lease_domain_id
+from repo_paths import REPO
 
-REPO = Path(__file__).resolve().parent.parent
 _session = ExitStack()
 
 

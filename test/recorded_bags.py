@@ -1,4 +1,5 @@
-"""Bags for the tests, written the reference way: rosbags' own serializers and writers, message by message.
+"""Recordings for the tests, written the reference way: rosbags' own serializers and writers, message by
+message (bags), numpy (the real recordings' whitespace tables); bags read back with rosbags' AnyReader.
 
 The project reads them with its bulk decoder; writing them independently of it is what makes the
 reading tests a cross-check. Nothing here is project code.
@@ -13,12 +14,16 @@ import numpy as np
 from rosbags.rosbag1 import Writer as Writer1
 from rosbags.rosbag2 import StoragePlugin
 from rosbags.rosbag2 import Writer as Writer2
+from repo_paths import SHARED
 
+from baxter_dynamics_ros.core.joints import arm_joint_names
 from msg_adapters.robot_joint_states import BAXTER_JOINT_NAMES as BAXTER_JOINTS  # the robot's names, in its order
 from msg_adapters.serialized_joint_states import JOINT_STATE, SEA_JOINT_STATE, typestore
 
 BAG_KINDS = ("ros1", "sqlite3", "mcap")
 START_NS = 1_700_000_000_123_456_789
+REAL_DATA = SHARED / "data" / "baxter_real"
+REAL_FILES = sorted(REAL_DATA.glob("*.csv")) if REAL_DATA.is_dir() else []
 
 
 def joint_states(n: int, names: Sequence[str] = BAXTER_JOINTS, rate_hz: float = 100.0, seed: int = 0) -> dict:
@@ -113,3 +118,42 @@ def bag_storage_file(path: Path) -> Path:
         return path
     (storage,) = [p for p in path.iterdir() if p.suffix in (".db3", ".mcap")]
     return storage
+
+
+def columns(states: dict, joints: tuple[str, ...], names: tuple[str, ...] = BAXTER_JOINTS) -> list[np.ndarray]:
+    """position, velocity, effort (n, 7) of ``joints`` from states over ``names``."""
+    where = [names.index(j) for j in joints]
+    return [states[k][:, where] for k in ("position", "velocity", "effort")]
+
+
+def write_baxter_export(path: Path, states: dict, side: str = "left") -> Path:
+    """The whitespace layout of the real recordings: ang_/vel_/torq_ columns, no time."""
+    joints = arm_joint_names(side)
+    q, qd, tau = columns(states, joints)
+    header = " ".join(f"{p}_{j}" for p in ("ang", "vel", "torq") for j in joints)
+    np.savetxt(path, np.hstack([q, qd, tau]), header=header, comments="", fmt="%.17g")
+    return path
+
+
+def read_output_bag(path: Path) -> dict[str, dict[str, np.ndarray]]:
+    """{topic: {stamps_ns, names, position, velocity, effort}} read with rosbags message by message."""
+    from rosbags.highlevel import AnyReader
+
+    out: dict[str, dict[str, list]] = {}
+    with AnyReader([path]) as reader:
+        assert {c.msgtype for c in reader.connections} == {JOINT_STATE}
+        for connection, log_ns, raw in reader.messages():
+            msg = reader.deserialize(raw, connection.msgtype)
+            stamp_ns = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+            assert log_ns == stamp_ns
+            entry = out.setdefault(connection.topic, {k: [] for k in ("stamps_ns", "names", "position", "velocity", "effort")})
+            entry["stamps_ns"].append(stamp_ns)
+            entry["names"].append(tuple(msg.name))
+            for field in ("position", "velocity", "effort"):
+                entry[field].append(getattr(msg, field))
+    return {topic: {k: np.array(v) for k, v in entry.items()} for topic, entry in out.items()}
+
+
+def listing_of(folder: Path) -> list[str]:
+    """The names in ``folder``, sorted."""
+    return sorted(p.name for p in folder.iterdir())

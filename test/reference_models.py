@@ -19,9 +19,10 @@ import yaml
 
 from baxter_dynamics_ros import ArmModel
 from baxter_dynamics_ros.core import pinocchio_model
+from repo_paths import SHARED
 
 N = 7
-URDF_PATH = Path(__file__).resolve().parents[2] / "shared" / "reference" / "baxter.urdf"
+URDF_PATH = SHARED / "reference" / "baxter.urdf"
 
 # Q of eq. (11): ∂/∂θ of a rotation about z, as a 4×4 operator.
 Q_REVOLUTE = np.zeros((4, 4))

@@ -17,6 +17,7 @@ import pytest
 import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from repo_paths import REPO
 from recorded_bags import BAXTER_JOINTS, joint_states
 
 from baxter_dynamics_ros import load_arm_model
@@ -29,7 +30,6 @@ from baxter_dynamics_ros.monitoring.thresholds import Thresholds, read_threshold
 from msg_adapters.recording_files import read_recording
 
 pytestmark = pytest.mark.filterwarnings("error")  # a warning on stderr is no more welcome than a traceback
-REPO = Path(__file__).resolve().parent.parent
 ARM = load_arm_model("right")
 FUZZ = settings(max_examples=150, deadline=None, database=None, suppress_health_check=[HealthCheck.too_slow])
 _folder = Path(tempfile.mkdtemp(prefix="baxter-fuzz-"))  # one file rewritten per example; hypothesis reuses no fixture

@@ -24,8 +24,8 @@ import sys
 from pathlib import Path
 
 import pytest
+from repo_paths import REPO
 
-REPO = Path(__file__).resolve().parents[1]
 PACKAGE = REPO / "baxter_dynamics_ros"
 STDLIB = set(sys.stdlib_module_names) | {"__future__"}
 

@@ -19,8 +19,8 @@ from baxter_dynamics_ros.simulation.sensor import START_STAMP_NS
 from baxter_dynamics_ros.simulation.spec import SensorModel, SimulationSpec, read_spec_json
 from msg_adapters.recording_files import read_recording
 from msg_adapters.robot_joint_states import BAXTER_JOINT_NAMES, robot_joint_states
+from repo_paths import CONFIG
 
-CONFIG = Path(__file__).resolve().parent.parent / "config"
 HALF_STEP_NM = 0.002 + 1e-9  # half the effort quantisation step
 EXACT = SensorModel(position_step_rad=0.0, effort_step_nm=0.0)
 

@@ -14,8 +14,7 @@ from pathlib import Path
 
 import pytest
 from cli_runs import REPO, listing, run_cli, the_error
-from recorded_bags import BAXTER_JOINTS, joint_states
-from test_recordings_io import write_baxter_export
+from recorded_bags import BAXTER_JOINTS, joint_states, write_baxter_export
 
 N = 600
 

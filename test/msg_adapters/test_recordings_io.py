@@ -10,12 +10,17 @@ import pytest
 from recorded_bags import (
     BAG_KINDS,
     BAXTER_JOINTS,
+    REAL_DATA,
+    REAL_FILES,
     START_NS,
     bag_path,
     bag_storage_file,
+    columns,
     joint_states,
+    listing_of,
     message,
     write_bag,
+    write_baxter_export,
     write_reference_bag,
 )
 
@@ -36,15 +41,7 @@ from msg_adapters.serialized_joint_states import (
     typestore,
 )
 
-REAL_DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "baxter_real"
-REAL_FILES = sorted(REAL_DATA.glob("*.csv")) if REAL_DATA.is_dir() else []
 N = 300
-
-
-def columns(states: dict, joints: tuple[str, ...], names: tuple[str, ...] = BAXTER_JOINTS) -> list[np.ndarray]:
-    """position, velocity, effort (n, 7) of ``joints`` from states over ``names``."""
-    where = [names.index(j) for j in joints]
-    return [states[k][:, where] for k in ("position", "velocity", "effort")]
 
 
 def assert_recording_is(rec: Recording, states: dict, side: str, names: tuple[str, ...] = BAXTER_JOINTS) -> None:
@@ -237,15 +234,6 @@ def test_a_topic_of_another_type_is_refused(tmp_path: Path) -> None:
 
 
 # ------------------------------------------------------------------------------------------- tables
-def write_baxter_export(path: Path, states: dict, side: str = "left") -> Path:
-    """The whitespace layout of the real recordings: ang_/vel_/torq_ columns, no time."""
-    joints = arm_joint_names(side)
-    q, qd, tau = columns(states, joints)
-    header = " ".join(f"{p}_{j}" for p in ("ang", "vel", "torq") for j in joints)
-    np.savetxt(path, np.hstack([q, qd, tau]), header=header, comments="", fmt="%.17g")
-    return path
-
-
 def estimate_in(text: str) -> float:
     """The one rate in Hz a message names ("... 99.52 Hz ...")."""
     (rate,) = re.findall(r"(\d+(?:\.\d+)?) Hz", text)
@@ -391,10 +379,6 @@ def test_joint_states_written_by_extension_read_back_exactly(tmp_path: Path, suf
     assert_recording_is(read_recording(path), states, "right")
     with pytest.raises(OutputError, match="exists already; choose another --out or pass --force"):
         write_joint_states(path, states["stamps_ns"], BAXTER_JOINTS, states["position"], states["velocity"], states["effort"])
-
-
-def listing_of(folder: Path) -> list[str]:
-    return sorted(p.name for p in folder.iterdir())
 
 
 # --------------------------------------------------------------------------------------- recording

@@ -26,8 +26,8 @@ from baxter_dynamics_ros.core.effects import (
     total_torque,
 )
 from baxter_dynamics_ros.errors import EffectSpecError
+from repo_paths import CONFIG
 
-CONFIG = Path(__file__).resolve().parent.parent / "config"
 ALL = {
     "torque_offset": {"offset_nm": {"s0": -0.4, "e1": 0.5}},
     "viscous_friction": {"damping_nm_s_rad": 0.5},

@@ -8,8 +8,18 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from recorded_bags import BAXTER_JOINTS, bag_path, bag_storage_file, joint_states, write_reference_bag
-from test_recordings_io import REAL_FILES, listing_of, write_baxter_export
+from repo_paths import REPO
+from recorded_bags import (
+    BAXTER_JOINTS,
+    REAL_FILES,
+    bag_path,
+    bag_storage_file,
+    joint_states,
+    listing_of,
+    read_output_bag,
+    write_baxter_export,
+    write_reference_bag,
+)
 
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.cli.main import main
@@ -17,7 +27,6 @@ from baxter_dynamics_ros.core.acceleration import LowPassDifferentiator, first_d
 from baxter_dynamics_ros.core.joints import arm_joint_names
 from msg_adapters.bag_io import RESULT_TOPICS, read_bag_recording
 from msg_adapters.csv_io import read_table_recording
-from msg_adapters.serialized_joint_states import JOINT_STATE
 
 N = 400
 TOPICS = ("/robot/joint_states", *RESULT_TOPICS.values())
@@ -53,25 +62,6 @@ def expected(states: dict, acceleration: str = "zero_phase", cutoff_hz: float | 
         "inverse_dynamics": tau,
         "residual": effort - tau,
     }
-
-
-def read_output_bag(path: Path) -> dict[str, dict[str, np.ndarray]]:
-    """{topic: {stamps_ns, names, position, velocity, effort}} read with rosbags message by message."""
-    from rosbags.highlevel import AnyReader
-
-    out: dict[str, dict[str, list]] = {}
-    with AnyReader([path]) as reader:
-        assert {c.msgtype for c in reader.connections} == {JOINT_STATE}
-        for connection, log_ns, raw in reader.messages():
-            msg = reader.deserialize(raw, connection.msgtype)
-            stamp_ns = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
-            assert log_ns == stamp_ns
-            entry = out.setdefault(connection.topic, {k: [] for k in ("stamps_ns", "names", "position", "velocity", "effort")})
-            entry["stamps_ns"].append(stamp_ns)
-            entry["names"].append(tuple(msg.name))
-            for field in ("position", "velocity", "effort"):
-                entry[field].append(getattr(msg, field))
-    return {topic: {k: np.array(v) for k, v in entry.items()} for topic, entry in out.items()}
 
 
 def run_cli(*argv: str | Path) -> int:
@@ -256,9 +246,9 @@ def test_console_script_process_never_imports_rclpy(recorded, tmp_path: Path) ->
         f"status = main(['process', {str(path)!r}, '--out', {str(tmp_path / 'r.csv')!r}]); "
         "assert 'rclpy' not in sys.modules, 'rclpy imported'; sys.exit(status)"
     )
-    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=Path(__file__).parents[1])
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=REPO)
     assert result.returncode == 0, result.stderr
     help_text = subprocess.run(
-        [sys.executable, "-m", "baxter_dynamics_ros.cli", "--help"], capture_output=True, text=True, timeout=60, cwd=Path(__file__).parents[1]
+        [sys.executable, "-m", "baxter_dynamics_ros.cli", "--help"], capture_output=True, text=True, timeout=60, cwd=REPO
     ).stdout
     assert "process" in help_text and "play" in help_text

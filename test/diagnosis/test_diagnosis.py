@@ -16,12 +16,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from repo_paths import SHARED
 from reference_models import pinocchio_from_arm
 from scipy.signal import butter, sosfiltfilt
 
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.core.effect_specs import effects_from_dict, load_effects
 from baxter_dynamics_ros.core.effects import Delay, InertialError, Payload
+from baxter_dynamics_ros.core.recording import Recording
 from baxter_dynamics_ros.diagnosis.fit import COM_BOX_M, MASS_RANGE, PAYLOAD_COM_BOX_M, PAYLOAD_MASS_KG
 from baxter_dynamics_ros.diagnosis.procedure import CANDIDATE_NAMES, diagnose
 from baxter_dynamics_ros.diagnosis.report import effects_yaml
@@ -33,12 +35,15 @@ from baxter_dynamics_ros.diagnosis.validation import (
     Scenario,
     rigid_mse,
     run_scenario,
+    simulated_recordings,
     single_effect,
+    validation_arm,
 )
 from baxter_dynamics_ros.diagnosis.validation import TEST as TEST_RUNS
 from baxter_dynamics_ros.diagnosis.validation import TRAIN as TRAIN_RUNS
+from baxter_dynamics_ros.errors import DiagnosisError
 
-REAL = Path(__file__).resolve().parent.parent.parent / "shared" / "data" / "baxter_real"
+REAL = SHARED / "data" / "baxter_real"
 REAL_FILES = sorted(REAL.glob("*.csv"))
 needs_real = pytest.mark.skipif(
     len(REAL_FILES) != 4, reason=f"the four real Baxter recordings are not in {REAL} (../shared/data/baxter_real)"
@@ -178,7 +183,6 @@ def test_drifting_offsets_are_reported_as_drift() -> None:
 
 def test_drift_at_a_joint_other_than_s0_is_found() -> None:
     """Offsets of 0.3, 0.6 and 0.9 N·m at e1 in three recordings: recovered per recording, said to drift."""
-    from baxter_dynamics_ros.diagnosis_validation import simulated_recordings, validation_arm
 
     per = tuple({"torque_offset": {"offset_nm": [0, 0, 0, e1, 0, 0, 0]}} for e1 in (0.3, 0.6, 0.9, 0.6, 0.6))
     scenario = Scenario("e1 offsets", {}, per_recording=per)
@@ -195,9 +199,6 @@ def test_drift_at_a_joint_other_than_s0_is_found() -> None:
 def test_effort_that_is_not_this_arms_torque_is_refused() -> None:
     """A recording whose effort is noise, or with a joint whose effort never changes, cannot be
     diagnosed: refused, naming the recording (and the joint)."""
-    from baxter_dynamics_ros.diagnosis_validation import simulated_recordings, validation_arm
-    from baxter_dynamics_ros.errors import DiagnosisError
-    from baxter_dynamics_ros.recording import Recording
 
     train = simulated_recordings(Scenario("rigid", {}), TRAIN_RUNS, ())
     test = simulated_recordings(Scenario("rigid", {}), TEST_RUNS, ())

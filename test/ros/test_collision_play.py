@@ -34,6 +34,7 @@ from baxter_dynamics_ros.cli.main import main
 from baxter_dynamics_ros.monitoring.observer import observe_arrays
 from baxter_dynamics_ros.monitoring.thresholds import read_thresholds
 from msg_adapters.recording_files import read_recording
+from repo_paths import REPO
 
 rclpy = pytest.importorskip("rclpy")
 from rosgraph_msgs.msg import Clock  # noqa: E402
@@ -41,7 +42,6 @@ from sensor_msgs.msg import JointState  # noqa: E402
 from std_msgs.msg import Bool  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 
-REPO = Path(__file__).resolve().parents[1]
 NODE = "/baxter_dynamics"
 ARM_JOINTS = tuple(f"right_{j}" for j in ("s0", "s1", "e0", "e1", "w0", "w1", "w2"))
 #: Sensor side of the collision benchmark (bench/bench_collision.py): effort noise and q̇ noise.

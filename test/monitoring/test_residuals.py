@@ -7,11 +7,11 @@ against their batch forms, every skip cause against its documented effect on the
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
+from repo_paths import REPO
 from reference_models import assert_close, pinocchio_from_arm, random_states
 
 from baxter_dynamics_ros import load_arm_model
@@ -22,7 +22,6 @@ from baxter_dynamics_ros.monitoring.health import HealthMonitor
 from baxter_dynamics_ros.monitoring.pipeline import ResidualPipeline, make_estimator
 from baxter_dynamics_ros.ros.node_settings import NodeSettings
 
-REPO = Path(__file__).resolve().parent.parent
 ARM = load_arm_model("right")
 N = 60
 DT_NS = 10_000_000  # 100 Hz

@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from repo_paths import REPO
 from recorded_bags import START_NS, joint_states
 
 from baxter_dynamics_ros import load_arm_model
@@ -37,7 +38,6 @@ from rosgraph_msgs.msg import Clock  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 
-REPO = Path(__file__).resolve().parent.parent
 CONFIG = REPO / "config" / "baxter_dynamics.yaml"
 JOINTS = tuple(sorted(BAXTER_JOINT_NAMES))  # as a real Baxter sends them
 RATE_HZ = 100.0

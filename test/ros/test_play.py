@@ -16,13 +16,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from recorded_bags import BAXTER_JOINTS, joint_states, write_reference_bag
-from test_process_command import read_output_bag
+from repo_paths import REPO
+from recorded_bags import BAXTER_JOINTS, joint_states, read_output_bag, write_reference_bag
 
 from baxter_dynamics_ros.cli.main import main
 from msg_adapters.bag_io import RESULT_TOPICS
 
-REPO = Path(__file__).resolve().parents[1]
 N = 200  # 2 s at 100 Hz, played at twice real time
 CUTOFF_HZ = 8.0
 TIMEOUT_S = 60.0
