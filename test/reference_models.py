@@ -1,21 +1,24 @@
 """Independent references for the Lagrange-Euler core, used by the tests only.
 
+- :func:`paper_reference`: a Pinocchio model of the arm built here from the paper's tables (written
+  out below) and the DH lengths read from the URDF's text, with none of the package's code or files:
+  what the 1e-9 tests compare the core with, so that a parsing or model-file error cannot pass them.
 - :func:`pinocchio_from_arm`: a Pinocchio model built from an :class:`ArmModel`'s own parameters
-  (DH table, link inertials, gravity), so that crba/rnea/aba must match it to rounding.
+  (DH table, link inertials, gravity), for arms the tests change (compensated inertials, payloads).
 - :func:`pinocchio_from_urdf`: Rethink's ``baxter.urdf`` (``../shared/reference``, read in place)
-  through Pinocchio's URDF parser, with the arm base (DH frame 0) and the flange (``<side>_hand``).
+  through Pinocchio's URDF parser, with the arm base (DH frame 0, the ``<side>_s0`` origin read from
+  the URDF) and the flange (``<side>_hand``).
 - :class:`LiteralLagrangeEuler`: the paper's eqs. (2), (6)–(11) written out literally, with U_ij,
   U_ijk and the triple sums: O(n⁴), slow, and an oracle for the fast recursions.
 """
 
 from __future__ import annotations
 
+import xml.etree.ElementTree as ET
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
-import yaml
 
 from baxter_dynamics_ros import ArmModel
 from baxter_dynamics_ros.core import pinocchio_model
@@ -109,17 +112,90 @@ class PinocchioArm:
         return np.vstack([rot @ jac[:3], rot @ jac[3:]])
 
 
+#: The arm's joints, in order (Table II's links 1-7).
+JOINT_SUFFIXES = ("s0", "s1", "e0", "e1", "w0", "w1", "w2")
+#: Table II: α (rad) and mass (kg) of link i. θ offsets: θ2 = q_s1 + π/2, which the paper omits (the
+#: URDF's zero pose; the flange test against the URDF checks it).
+TABLE_II_ALPHA_RAD = (-np.pi / 2, np.pi / 2, -np.pi / 2, np.pi / 2, -np.pi / 2, np.pi / 2, 0.0)
+TABLE_II_MASS_KG = (5.70044, 3.22698, 4.31272, 2.07206, 2.24665, 1.60979, 0.54218)
+THETA_OFFSET_RAD = (0.0, np.pi / 2, 0.0, 0.0, 0.0, 0.0, 0.0)
+#: Table IV: centre of mass of link i (m, DH frame i).
+TABLE_IV_COM_M = (
+    (-0.05117, 0.07908, 0.00086),
+    (0.00269, -0.00529, 0.06845),
+    (-0.07176, 0.08149, 0.00132),
+    (0.00159, -0.01117, 0.02618),
+    (-0.01168, 0.13111, 0.0046),
+    (0.00697, 0.006, 0.06048),
+    (0.005137, 0.0009572, -0.06682),
+)
+#: Table III: inertia tensor of link i about its centre of mass (kg·m², DH frame i), as
+#: (xx, yy, zz, xy, yz, xz), the off-diagonal entries the tensor's elements. Links 1-4 as printed;
+#: links 5-6: the printed diagonal, the products (which the printed table lacks) from the URDF
+#: rotated into the DH frames; link 7: the URDF's wrist and hand merged about their centre of mass
+#: (the printed one is 4e-4 kg·m² below it). The URDF-derived figures are transcribed from that
+#: derivation (the model files' comments describe it), not read from a model file.
+TABLE_III_INERTIA_KGM2 = (
+    (0.0470910226, 0.035959884, 0.0376697645, -0.0061487003, -0.0007808689, 0.0001278755),
+    (0.027885975, 0.020787492, 0.0117520941, -0.0001882199, 0.0020767576, -0.00030096397),
+    (0.0266173355, 0.012480083, 0.028443552, -0.0039218988, -0.001083893, 0.0002927063),
+    (0.0131822787, 0.00926852, 0.0071158268, -0.0001966341, 0.000745949, 0.0003603617),
+    (0.0166774282, 0.003746311, 0.0167545726, -0.00018657629, 0.00064732352, 0.00018403705),
+    (0.0070053791, 0.005527552, 0.0038760715, 0.00015348067, -0.00021115038, -0.00044384784),
+    (0.0012147746, 0.0012763573, 0.0005548668, 8.1434e-06, 4.7154e-06, -6.55078e-05),
+)
+GRAVITY_M_S2 = (0.0, 0.0, -9.81)  # in DH frame 0: the arm mount turns about the vertical only
+
+
+def urdf_joint_origins(side: str) -> dict[str, np.ndarray]:
+    """{joint suffix: origin xyz (3,) m} of the side's joints (and ``hand``), read from the URDF's text."""
+    root = ET.parse(URDF_PATH).getroot()
+    out = {}
+    for joint in root.findall("joint"):
+        name, origin = joint.get("name", ""), joint.find("origin")
+        if name.startswith(f"{side}_") and origin is not None:
+            out[name.removeprefix(f"{side}_")] = np.array(origin.get("xyz").split(), dtype=float)
+    return out
+
+
+def urdf_dh_lengths(side: str) -> tuple[np.ndarray, np.ndarray]:
+    """d, a (7,) m of the DH table, from the URDF's joint origins.
+
+    The URDF puts each joint's frame on its axis; along the DH normals its offsets add up as
+    d1 = z(s1), a1 = x(s1), d3 = x(e0) + z(e1), a3 = x(e1), d5 = x(w0) + z(w1), a5 = x(w1),
+    d7 = x(w2) + z(hand) (the flange), the other lengths 0.
+    """
+    o = urdf_joint_origins(side)
+    d = [o["s1"][2], 0.0, o["e0"][0] + o["e1"][2], 0.0, o["w0"][0] + o["w1"][2], 0.0, o["w2"][0] + o["hand"][2]]
+    a = [o["s1"][0], 0.0, o["e1"][0], 0.0, o["w1"][0], 0.0, 0.0]
+    return np.array(d), np.array(a)
+
+
+def paper_reference(side: str) -> PinocchioArm:
+    """Pinocchio's model of one arm from the tables above and the URDF's DH lengths (module docstring).
+
+    Joint i+1 sits on joint i at X_i = Rz(θ offset_i)·Tz(d_i)·Tx(a_i)·Rx(α_i) (eq. 2 at q = 0), link
+    i's inertials (DH frame i) are attached at X_i, the flange frame is DH frame 7; world = DH frame 0.
+    """
+    d, a = urdf_dh_lengths(side)
+    model = pin.Model()
+    joint, placement = 0, pin.SE3.Identity()
+    for i, suffix in enumerate(JOINT_SUFFIXES):
+        joint = model.addJoint(joint, pin.JointModelRZ(), placement, f"{side}_{suffix}")
+        placement = link_placement((d[i], a[i], TABLE_II_ALPHA_RAD[i], THETA_OFFSET_RAD[i]))
+        xx, yy, zz, xy, yz, xz = TABLE_III_INERTIA_KGM2[i]
+        tensor = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+        model.appendBodyToJoint(joint, pin.Inertia(TABLE_II_MASS_KG[i], np.array(TABLE_IV_COM_M[i]), tensor), placement)
+    flange = model.addFrame(pin.Frame("flange", joint, placement, pin.FrameType.OP_FRAME))
+    model.gravity.linear = np.array(GRAVITY_M_S2)
+    return PinocchioArm(model, model.createData(), np.arange(N), pin.SE3.Identity(), flange)
+
+
 def pinocchio_from_arm(arm: ArmModel) -> PinocchioArm:
     """The package's Pinocchio model of the arm (:func:`baxter_dynamics_ros.core.pinocchio_model.pinocchio_from_arm`:
     7 revolute-z joints from the DH table, link i attached at X_i), its flange frame = DH frame 7."""
     model = pinocchio_model.pinocchio_from_arm(arm)
     return PinocchioArm(model, model.createData(), np.arange(N), pin.SE3.Identity(), model.getFrameId("flange"))
-
-
-def urdf_mount_offset(arm: ArmModel) -> np.ndarray:
-    """``mount.base_offset_m`` (3,) of the arm's model file: DH frame 0 in the arm-mount frame."""
-    raw = yaml.safe_load(Path(arm.source).read_text(encoding="utf-8"))
-    return np.asarray(raw["mount"]["base_offset_m"], dtype=float)
 
 
 def pinocchio_from_urdf(arm: ArmModel) -> PinocchioArm:
@@ -129,14 +205,14 @@ def pinocchio_from_urdf(arm: ArmModel) -> PinocchioArm:
     wrist, the hand and the hand's 0.1 g sensor links: the paper's merged link 7. (The URDF names a
     fixed joint and a link both ``<side>_hand``, which makes ``buildReducedModel`` refuse it; with
     the other joints at zero velocity and acceleration the arm's torques are the same.)
-    DH frame 0 is the ``<side>_arm_mount`` frame translated by ``mount.base_offset_m``.
+    DH frame 0 is the ``<side>_arm_mount`` frame translated by the ``<side>_s0`` joint's origin.
     """
     model = pin.buildModelFromUrdf(str(URDF_PATH))
     idx = np.array([model.joints[model.getJointId(name)].idx_q for name in arm.joint_names])
     data = model.createData()
     pin.framesForwardKinematics(model, data, pin.neutral(model))
     mount = data.oMf[model.getFrameId(f"{arm.side}_arm_mount", pin.FrameType.BODY)]
-    base = mount * pin.SE3(np.eye(3), urdf_mount_offset(arm))
+    base = mount * pin.SE3(np.eye(3), urdf_joint_origins(arm.side)["s0"])
     flange = model.getFrameId(f"{arm.side}_hand", pin.FrameType.BODY)
     return PinocchioArm(model, data, idx, base, flange)
 

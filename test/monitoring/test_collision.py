@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import pytest
-from reference_models import pinocchio_from_arm, random_states
+from reference_models import paper_reference, random_states
 
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.cli.main import main
@@ -60,7 +60,7 @@ def pushed():
 
 def test_coriolis_transpose_term_matches_pinocchio(arm: ArmModel) -> None:
     """β − τ + G = Cᵀ(q, q̇) q̇ (Ṁ by central difference) against Pinocchio's Coriolis matrix."""
-    ref = pinocchio_from_arm(arm)
+    ref = paper_reference(arm.side)
     q, qd, _ = random_states(arm, 20, 0, 5.0)
     tau = np.zeros_like(q)
     p, beta = momentum_terms(arm, q, qd, tau)
@@ -70,7 +70,9 @@ def test_coriolis_transpose_term_matches_pinocchio(arm: ArmModel) -> None:
         np.testing.assert_allclose(p[k], ref.mass_matrix(q[k]) @ qd[k], atol=1e-10)
 
 
-def test_per_sample_observer_gives_the_batch_numbers(arm: ArmModel, pushed) -> None:
+def test_per_sample_observer_gives_the_batch_numbers_wiring(arm: ArmModel, pushed) -> None:
+    """Wiring only: the per-sample observer and the batch share their helpers (the independent check
+    is test_observer_matches_an_independent_integration_of_its_equations)."""
     rec = pushed.recording()
     batch = observe(arm, rec, GAIN)
     observer = MomentumObserver(arm, GAIN)
@@ -82,7 +84,8 @@ def test_per_sample_observer_gives_the_batch_numbers(arm: ArmModel, pushed) -> N
 
 
 @pytest.mark.parametrize("effort_delay_s", [-0.013, 0.004, 0.02])
-def test_aligned_observer_one_by_one_gives_the_batch_numbers(arm: ArmModel, pushed, effort_delay_s: float) -> None:
+def test_aligned_observer_one_by_one_gives_the_batch_numbers_wiring(arm: ArmModel, pushed, effort_delay_s: float) -> None:
+    """Wiring, and the alignment's pairing by interpolation, through the observer's own helpers."""
     rec = pushed.recording()
     keep = np.r_[0:150, 151:len(rec)]  # one sample lost: an uneven step to interpolate over
     stamps, q, qd, effort = rec.stamps_ns[keep], rec.q[keep], rec.qd[keep], rec.effort[keep]
@@ -99,6 +102,54 @@ def test_aligned_observer_one_by_one_gives_the_batch_numbers(arm: ArmModel, push
     np.testing.assert_allclose(batch, expected, atol=1e-9)
     with pytest.raises(CollisionError, match="effort_delay_s"):
         MomentumObserver(arm, GAIN, effort_delay_s=0.2)
+
+
+def rk4_momentum_observer(stamps_s: np.ndarray, q: np.ndarray, qd: np.ndarray, effort: np.ndarray, gain_1_s: float) -> np.ndarray:
+    """r (N, 7) of the momentum observer's continuous equations, integrated here by RK4 over each
+    sampling step with the inputs linearly interpolated, M, C, G from the paper's Pinocchio model
+    (C the Coriolis matrix, Ṁ = C + Cᵀ):
+
+        r = K_O (z − (p − p₀)),  ż = τ + Cᵀ(q, q̇) q̇ − G(q) − r,  p = M(q) q̇
+
+    (De Luca's observer with the residual's sign), written from those equations, not the code's."""
+    ref = paper_reference("right")
+
+    def momentum_and_beta(x: np.ndarray, v: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        coriolis = pin.computeCoriolisMatrix(ref.model, ref.data, x, v)
+        return ref.mass_matrix(x) @ v, tau + coriolis.T @ v - ref.gravity(x)
+
+    ends = [momentum_and_beta(*s) for s in zip(q, qd, effort)]
+    mids = [momentum_and_beta(*((a[k] + a[k + 1]) / 2.0 for a in (q, qd, effort))) for k in range(len(q) - 1)]
+    p0 = ends[0][0]
+
+    def z_dot(z: np.ndarray, at: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+        p, beta = at
+        return beta - gain_1_s * (z - (p - p0))
+
+    z, r = np.zeros(7), [np.zeros(7)]
+    for k, h in enumerate(np.diff(stamps_s)):
+        k1 = z_dot(z, ends[k])
+        k2 = z_dot(z + 0.5 * h * k1, mids[k])
+        k3 = z_dot(z + 0.5 * h * k2, mids[k])
+        k4 = z_dot(z + h * k3, ends[k + 1])
+        z = z + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        r.append(gain_1_s * (z - (ends[k + 1][0] - p0)))
+    return np.array(r)
+
+
+def test_observer_matches_an_independent_integration_of_its_equations(arm: ArmModel) -> None:
+    """The observer's r against :func:`rk4_momentum_observer` on the same pushed motion at 100 Hz and
+    1 kHz: the code's backward-Euler step converges to the equations at first order. Measured: max
+    |Δr| 0.84 N·m at 100 Hz, 0.105 N·m at 1 kHz (ratio 0.124; r up to 14.2 N·m), at the pushes'
+    20 ms ramps."""
+    errors = {}
+    for rate_hz in (100.0, 1000.0):
+        rec = simulate(SimulationSpec("random", 3.0, rate_hz, seed=2, collisions=PUSHES, sensor=EXACT)).recording()
+        expected = rk4_momentum_observer(rec.stamps_s, rec.q, rec.qd, rec.effort, GAIN)
+        assert np.abs(expected).max() > 10.0, "the pushes should show"
+        errors[rate_hz] = float(np.abs(observe(arm, rec, GAIN) - expected).max())
+    assert errors[1000.0] <= 0.15, f"max |r − r_ODE| at 1 kHz: {errors[1000.0]:.3g} N·m (100 Hz: {errors[100.0]:.3g})"
+    assert errors[1000.0] <= 0.2 * errors[100.0], f"not first order: {errors}"
 
 
 def test_effort_delay_is_estimated_from_collision_free_motion(arm: ArmModel) -> None:
