@@ -1,9 +1,10 @@
 """ament_python package: installs with colcon in a ROS 2 workspace and with pip in a venv.
 
-Python dependencies are declared once, here. colcon builds need none of them from PyPI (rosdep
-provides them from package.xml), so they sit in extras: ``pip install -e .[pypi,test]`` installs
-ROS 2 Jazzy from its PyPI wheels (``ros-jazzy-*`` names; the unprefixed ``ros-*`` ones belong to
-another distribution) together with everything else.
+Python dependencies are declared here. The pure-Python ones are install requirements, so that a
+plain ``pip install .`` gives working ROS-free parts (the core, simulation, diagnosis, ``process``);
+colcon installs without fetching anything (rosdep provides them from package.xml). ROS 2 Jazzy's
+PyPI wheels (``ros-jazzy-*`` names; the unprefixed ``ros-*`` ones belong to another distribution)
+sit in the ``pypi`` extra: ``pip install -e .[pypi,test]`` installs everything.
 """
 
 from glob import glob
@@ -30,9 +31,19 @@ setup(
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),
         ("share/" + package_name + "/config", glob("config/*.yaml")),
+        ("share/" + package_name + "/launch", glob("launch/*.launch.xml")),
     ],
     python_requires=">=3.10",
-    install_requires=["setuptools"],
+    install_requires=[
+        "setuptools",
+        "numpy>=2.4.6",
+        "numba>=0.68.1",
+        "scipy>=1.17.1",
+        "pyyaml>=6.0.4",
+        "rosbags>=0.11.9",
+        "matplotlib>=3.11.2",
+        "pyarrow>=26.0.1",
+    ],
     extras_require={
         "pypi": ros_wheels + ["numpy", "numba", "pyyaml", "pin", "cmeel-eigen", "rosbags", "scipy", "matplotlib", "pyarrow"],
         "test": ["pytest", "hypothesis", "colcon-common-extensions", "mcap"],
