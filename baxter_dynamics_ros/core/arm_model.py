@@ -196,6 +196,18 @@ def load_arm_model(arm: str | os.PathLike[str] = "right") -> ArmModel:
     return _parse(read_yaml(path, ModelFileError, "model file"), str(path))
 
 
+#: Bounds of a model file's numbers: far beyond any robot arm, near enough that every product the
+#: dynamics form stays finite (a centre of mass of 1e154 m overflowed the pseudo-inertia).
+MAX_LENGTH_M = 100.0
+MAX_ANGLE_RAD = 100.0
+MAX_MASS_KG = 1e4
+MAX_INERTIA_KGM2 = 1e4
+MAX_SPEED_RAD_S = 1e3
+MAX_EFFORT_NM = 1e5
+MAX_GRAVITY_M_S2 = 100.0
+DH_FIELDS = (("d_m", MAX_LENGTH_M), ("a_m", MAX_LENGTH_M), ("alpha_rad", MAX_ANGLE_RAD), ("theta_offset_rad", MAX_ANGLE_RAD))
+
+
 class _Fields:
     """Reads fields of a parsed YAML mapping, failing with the field's dotted path."""
 
@@ -212,7 +224,8 @@ class _Fields:
             raise self.fail(f"{where}.{key}" if where else key, "missing")
         return mapping[key]
 
-    def array(self, mapping: Any, key: str, where: str, shape: tuple[int, ...]) -> np.ndarray:
+    def array(self, mapping: Any, key: str, where: str, shape: tuple[int, ...], limit: float) -> np.ndarray:
+        """The field as a float array of ``shape``, finite and within ±``limit`` (its unit)."""
         path = f"{where}.{key}" if where else key
         value = self.get(mapping, key, where)
         try:
@@ -223,6 +236,8 @@ class _Fields:
             raise self.fail(path, f"expected shape {shape}, got {arr.shape}")
         if not np.all(np.isfinite(arr)):
             raise self.fail(path, f"non-finite value in {arr.tolist()}")
+        if np.any(np.abs(arr) > limit):
+            raise self.fail(path, f"{arr.tolist()} is beyond ±{limit:g}, not a robot arm's")
         return arr
 
 
@@ -243,7 +258,7 @@ def _parse(raw: Any, source: str) -> ArmModel:
         raise f.fail("joint_names", f"expected {N_JOINTS} distinct names, got {names!r}")
     dh_raw = f.get(raw, "dh", "")
     dh = np.stack(
-        [f.array(dh_raw, k, "dh", (N_JOINTS,)) for k in ("d_m", "a_m", "alpha_rad", "theta_offset_rad")],
+        [f.array(dh_raw, k, "dh", (N_JOINTS,), limit) for k, limit in DH_FIELDS],
         axis=1,
     )
     links_raw = f.get(raw, "links", "")
@@ -251,23 +266,23 @@ def _parse(raw: Any, source: str) -> ArmModel:
         raise f.fail("links", f"expected a list of {N_JOINTS} links")
     links = tuple(_parse_link(f, entry, f"links[{i}]") for i, entry in enumerate(links_raw))
     lim = f.get(raw, "joint_limits", "")
-    lower = f.array(lim, "lower_rad", "joint_limits", (N_JOINTS,))
-    upper = f.array(lim, "upper_rad", "joint_limits", (N_JOINTS,))
+    lower = f.array(lim, "lower_rad", "joint_limits", (N_JOINTS,), MAX_ANGLE_RAD)
+    upper = f.array(lim, "upper_rad", "joint_limits", (N_JOINTS,), MAX_ANGLE_RAD)
     if np.any(lower >= upper):
         raise f.fail("joint_limits", "every lower_rad must be below its upper_rad")
-    velocity = f.array(lim, "velocity_rad_s", "joint_limits", (N_JOINTS,))
-    effort = f.array(lim, "effort_nm", "joint_limits", (N_JOINTS,))
+    velocity = f.array(lim, "velocity_rad_s", "joint_limits", (N_JOINTS,), MAX_SPEED_RAD_S)
+    effort = f.array(lim, "effort_nm", "joint_limits", (N_JOINTS,), MAX_EFFORT_NM)
     for key, arr in (("velocity_rad_s", velocity), ("effort_nm", effort)):
         if np.any(arr <= 0):
             raise f.fail(f"joint_limits.{key}", "limits must be positive")
     mount = f.get(raw, "mount", "")
-    rotation = _rpy_matrix(f.array(mount, "rpy_rad", "mount", (3,)))
+    rotation = _rpy_matrix(f.array(mount, "rpy_rad", "mount", (3,), MAX_ANGLE_RAD))
     base = np.eye(4)
     base[:3, :3] = rotation
-    base[:3, 3] = f.array(mount, "xyz_m", "mount", (3,)) + rotation @ f.array(
-        mount, "base_offset_m", "mount", (3,)
+    base[:3, 3] = f.array(mount, "xyz_m", "mount", (3,), MAX_LENGTH_M) + rotation @ f.array(
+        mount, "base_offset_m", "mount", (3,), MAX_LENGTH_M
     )
-    gravity_torso = f.array(raw, "gravity_m_s2", "", (3,))
+    gravity_torso = f.array(raw, "gravity_m_s2", "", (3,), MAX_GRAVITY_M_S2)
     return ArmModel(
         side=side,
         joint_names=tuple(names),
@@ -285,13 +300,13 @@ def _parse(raw: Any, source: str) -> ArmModel:
 
 def _parse_link(f: _Fields, raw: Any, where: str) -> LinkInertial:
     name = f.get(raw, "name", where)
-    mass = float(f.array(raw, "mass_kg", where, ()))
+    mass = float(f.array(raw, "mass_kg", where, (), MAX_MASS_KG))
     if mass <= 0:
         raise f.fail(f"{where}.mass_kg", f"must be positive, got {mass}")
-    com = f.array(raw, "com_m", where, (3,))
+    com = f.array(raw, "com_m", where, (3,), MAX_LENGTH_M)
     tensor = f.get(raw, "inertia_kgm2", where)
     keys = ("xx", "yy", "zz", "xy", "yz", "xz")
-    xx, yy, zz, xy, yz, xz = (float(f.array(tensor, k, f"{where}.inertia_kgm2", ())) for k in keys)
+    xx, yy, zz, xy, yz, xz = (float(f.array(tensor, k, f"{where}.inertia_kgm2", (), MAX_INERTIA_KGM2)) for k in keys)
     inertia = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
     eig = np.linalg.eigvalsh(inertia)
     if eig[0] <= 0:

@@ -101,6 +101,12 @@ MALFORMED = [
     ("six-links", lambda raw: raw["links"].pop(), r"links: expected a list of 7 links"),
     ("nan-com", _set("links.0.com_m", [math.nan, 0.0, 0.0]), r"links\[0\]\.com_m: non-finite value"),
     ("inf-gravity", _set("gravity_m_s2", [0.0, 0.0, -math.inf]), r"gravity_m_s2: non-finite value"),
+    # Found by the fuzz test: a finite centre of mass whose square overflows in the pseudo-inertia.
+    ("far-com", _set("links.3.com_m", [1.34e154, 0.0, 0.0]), r"links\[3\]\.com_m: .* is beyond ±100, not a robot arm's"),
+    ("huge-mass", _set("links.6.mass_kg", 1e300), r"links\[6\]\.mass_kg: .* is beyond ±10000"),
+    ("huge-inertia", _set("links.2.inertia_kgm2.xx", 1e200), r"links\[2\]\.inertia_kgm2\.xx: .* is beyond"),
+    ("far-dh", _set("dh.a_m", [0.069, 0.0, 0.069, 0.0, 1e30, 0.0, 0.0]), r"dh\.a_m: .* is beyond ±100"),
+    ("huge-gravity", _set("gravity_m_s2", [0.0, 0.0, -1e6]), r"gravity_m_s2: .* is beyond ±100"),
     ("text-number", _set("links.5.mass_kg", "heavy"), r"links\[5\]\.mass_kg: expected numbers, got 'heavy'"),
     ("bad-side", _set("arm", "middle"), r"arm: expected 'right' or 'left', got 'middle'"),
     ("duplicate-joint-names", _set("joint_names", ["j"] * 7), r"joint_names: expected 7 distinct names"),
