@@ -58,7 +58,8 @@ non-finite residual RMS is never reported OK.
 Speed: joint states are taken as CDR bytes by a thread of their own (:class:`SubscriptionThread`),
 not by the executor, whose Python bookkeeping costs ~0.2 ms per wake-up — a fifth of a core at
 1 kHz, several times the dynamics. The executor serves everything else (parameters, ~/reset, the
-diagnostics timer, /clock); one lock keeps the two threads apart.
+diagnostics timer, /clock, the outputs' "matched" events, which keep their subscriber counts so that
+the joint-state thread asks rmw nothing per sample); one lock keeps the two threads apart.
 
 This module owns the ROS objects and nothing else: the work is done by
 :class:`~baxter_dynamics_ros.monitoring.pipeline.ResidualPipeline` and
