@@ -10,11 +10,14 @@ node's own time per sample (read + dynamics + writes) comes from its /diagnostic
 the same messages sent to an echo subprocess (``--echo``, a plain rclpy node whose executor hands
 each message to ``publish``) that sends each one straight back, with the node's QoS, timed the
 same way. Only ``~/residual`` has a subscriber, as when a user plots it (the node writes only to
-topics someone listens to).
+topics someone listens to). Each rate is measured in ``--repeat`` rounds, echo then node in each,
+so that a change of the machine's load (it is shared) shows in both; every row gives the load
+average (1 min) at its end.
 
-Goals at 1 kHz: no loss, p99 ≤ 2 ms, node CPU ≤ 25 % of one core.
-Usage: ``python -m bench.bench_node [--duration S] [--rates HZ ...]`` (default 60 s at 100 and
-1000 Hz); ``./dev bench node`` runs the defaults.
+Goals (issue 14 §5): at every rate the node's p99 ≤ 1.1 × the echo's of the same round; at 1 kHz
+no loss, p99 ≤ 2 ms and node CPU ≤ 15 % of one core.
+Usage: ``python -m bench.bench_node [--duration S] [--rates HZ ...] [--repeat N]`` (default 60 s
+at 100 and 1000 Hz, 2 rounds); ``./dev bench node`` runs the defaults.
 """
 
 from __future__ import annotations
@@ -48,7 +51,8 @@ T0_NS = 1_700_000_000_000_000_000
 QOS_DEPTH = 100
 DRAIN_S = 1.0
 CLOCK_TICKS_S = os.sysconf("SC_CLK_TCK")
-GOALS_1KHZ = {"lost": 0, "p99_ms": 2.0, "cpu_percent": 25.0}
+GOALS_1KHZ = {"lost": 0, "p99_ms": 2.0, "cpu_percent": 15.0}
+GOAL_P99_RATIO = 1.1  # node p99 / echo p99, at every rate
 
 
 def _qos():
@@ -104,7 +108,8 @@ def cpu_s(pid: int) -> dict[str, float]:
 
 @dataclass(frozen=True)
 class Result:
-    """One run: samples sent and lost, latency percentiles in ms, peer CPU in % of one core."""
+    """One run: samples sent and lost, latency percentiles in ms, peer CPU in % of one core, the
+    machine's load average (1 min) at its end."""
 
     sent: int
     lost: int
@@ -114,6 +119,7 @@ class Result:
     cpu_percent: float
     cpu_by_thread: dict[str, float]
     processing_us: tuple[float, float] | None  # node's own mean and max per sample, from /diagnostics
+    load_average: float
 
 
 class Bench:
@@ -232,6 +238,7 @@ class Bench:
             cpu_percent.pop("total"),
             cpu_percent,
             self.processing_us(start_ns, end_ns + 1_000_000_000),  # the report closing the run's last window
+            os.getloadavg()[0],
         )
 
     def close(self) -> None:
@@ -256,7 +263,8 @@ def stop_peer(process: subprocess.Popen) -> None:
         process.wait()
 
 
-def measure(duration_s: float, rates_hz: Sequence[float]) -> dict[tuple[float, str], Result]:
+def measure(duration_s: float, rates_hz: Sequence[float], repeat: int) -> dict[tuple[float, int, str], Result]:
+    """Results by (rate, round, answering topic): per rate, ``repeat`` rounds of echo then node."""
     peers = {
         PONG: start_peer(["-m", "bench.bench_node", "--echo"]),
         RESIDUAL: start_peer(["-m", "baxter_dynamics_ros.ros.node", "--ros-args", "-p", "arm:=right"]),
@@ -267,9 +275,10 @@ def measure(duration_s: float, rates_hz: Sequence[float]) -> dict[tuple[float, s
         for topic in peers:
             bench.wait_matched(topic)
         for rate_hz in rates_hz:
-            for topic, process in peers.items():
-                bench.run(topic, rate_hz, min(2.0, duration_s), process.pid)  # warm-up
-                results[rate_hz, topic] = bench.run(topic, rate_hz, duration_s, process.pid)
+            for round_ in range(repeat):
+                for topic, process in peers.items():
+                    bench.run(topic, rate_hz, min(2.0, duration_s), process.pid)  # warm-up
+                    results[rate_hz, round_, topic] = bench.run(topic, rate_hz, duration_s, process.pid)
     finally:
         bench.close()
         for process in peers.values():
@@ -277,48 +286,54 @@ def measure(duration_s: float, rates_hz: Sequence[float]) -> dict[tuple[float, s
     return results
 
 
-def report(results: dict[tuple[float, str], Result], duration_s: float) -> None:
-    print(f"Live node end to end, {len(JOINTS)}-joint JointState, {duration_s:g} s per rate")
+def report(results: dict[tuple[float, int, str], Result], duration_s: float) -> None:
+    print(f"Live node end to end, {len(JOINTS)}-joint JointState, {duration_s:g} s per rate, path and round")
     print(f"  node: {INPUT} -> {RESIDUAL};  reference: echo {PING} -> {PONG}")
-    print(f"{'rate':>8} {'path':>10} {'sent':>7} {'lost':>5} {'p50 ms':>8} {'p99 ms':>8} {'max ms':>8} {'CPU %':>6}")
-    for rate_hz in sorted({r for r, _ in results}):
-        rows = {"echo": results[rate_hz, PONG], "node": results[rate_hz, RESIDUAL]}
+    print(f"{'rate':>8} {'round':>5} {'path':>10} {'sent':>7} {'lost':>5} {'p50 ms':>8} {'p99 ms':>8} {'max ms':>8} {'CPU %':>6} {'load':>5}")
+    verdict = {}
+    for rate_hz, round_ in sorted({(r, k) for r, k, _ in results}):
+        rows = {"echo": results[rate_hz, round_, PONG], "node": results[rate_hz, round_, RESIDUAL]}
         for name, r in rows.items():
-            print(f"{rate_hz:>6g}Hz {name:>10} {r.sent:>7} {r.lost:>5} {r.p50_ms:>8.3f} {r.p99_ms:>8.3f} {r.max_ms:>8.2f} {r.cpu_percent:>6.1f}")
+            print(
+                f"{rate_hz:>6g}Hz {round_ + 1:>5} {name:>10} {r.sent:>7} {r.lost:>5} {r.p50_ms:>8.3f} {r.p99_ms:>8.3f}"
+                f" {r.max_ms:>8.2f} {r.cpu_percent:>6.1f} {r.load_average:>5.2f}"
+            )
         node, ref = rows["node"], rows["echo"]
         print(
-            f"{'':>8} {'node/echo':>10} {'':>7} {'':>5} {node.p50_ms / ref.p50_ms:>7.2f}x {node.p99_ms / ref.p99_ms:>7.2f}x"
+            f"{'':>14} {'node/echo':>10} {'':>7} {'':>5} {node.p50_ms / ref.p50_ms:>7.2f}x {node.p99_ms / ref.p99_ms:>7.2f}x"
             f" {'':>8} {node.cpu_percent / ref.cpu_percent:>5.2f}x"
         )
         threads = node.cpu_by_thread
         line = (
-            f"{'':>8} node CPU by thread: joint-state thread {threads['other']:.1f} %, executor {threads['main']:.1f} %,"
+            f"{'':>14} node CPU by thread: joint-state thread {threads['other']:.1f} %, executor {threads['main']:.1f} %,"
             f" DDS {threads['dds']:.1f} %"
         )
         if node.processing_us is not None:
             line += f"; read + dynamics + writes per sample: mean {node.processing_us[0]:.0f} µs, max {node.processing_us[1]:.0f} µs"
         print(line)
-    if 1000.0 in {r for r, _ in results}:
-        node = results[1000.0, RESIDUAL]
-        verdict = {
-            f"no loss (lost {node.lost})": node.lost <= GOALS_1KHZ["lost"],
-            f"p99 ≤ {GOALS_1KHZ['p99_ms']} ms ({node.p99_ms:.3f})": node.p99_ms <= GOALS_1KHZ["p99_ms"],
-            f"CPU ≤ {GOALS_1KHZ['cpu_percent']} % ({node.cpu_percent:.1f})": node.cpu_percent <= GOALS_1KHZ["cpu_percent"],
-        }
-        print("goals at 1 kHz: " + "; ".join(f"{k}: {'met' if ok else 'MISSED'}" for k, ok in verdict.items()))
+        tag = f"{rate_hz:g} Hz round {round_ + 1}"
+        verdict[f"{tag}: p99 ≤ {GOAL_P99_RATIO} × echo ({node.p99_ms / ref.p99_ms:.2f})"] = node.p99_ms <= GOAL_P99_RATIO * ref.p99_ms
+        if rate_hz == 1000.0:
+            verdict[f"{tag}: no loss (lost {node.lost})"] = node.lost <= GOALS_1KHZ["lost"]
+            verdict[f"{tag}: p99 ≤ {GOALS_1KHZ['p99_ms']} ms ({node.p99_ms:.3f})"] = node.p99_ms <= GOALS_1KHZ["p99_ms"]
+            verdict[f"{tag}: CPU ≤ {GOALS_1KHZ['cpu_percent']} % ({node.cpu_percent:.1f})"] = node.cpu_percent <= GOALS_1KHZ["cpu_percent"]
+    print("goals:")
+    for text, ok in verdict.items():
+        print(f"  {text}: {'met' if ok else 'MISSED'}")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m bench.bench_node", description=__doc__.split("\n")[0])
     parser.add_argument("--duration", type=float, default=60.0, help="seconds per rate and path (default 60)")
     parser.add_argument("--rates", type=float, nargs="+", default=[100.0, 1000.0], help="input rates in Hz")
+    parser.add_argument("--repeat", type=int, default=2, help="rounds of echo then node per rate (default 2)")
     parser.add_argument("--echo", action="store_true", help=argparse.SUPPRESS)  # run as the reference peer
     args = parser.parse_args([] if argv is None else argv)
     if args.echo:
         return echo()
     with tempfile.TemporaryDirectory(prefix="bench_node-roslog-") as log_dir, isolated_ros_env(log_dir) as env:
         os.environ.update(env)  # this process and both peers: a private domain, discovery on localhost
-        report(measure(args.duration, args.rates), args.duration)
+        report(measure(args.duration, args.rates, args.repeat), args.duration)
     return 0
 
 

@@ -46,15 +46,17 @@ class JointStateReader:
         self._template = b""  # the message the layout was parsed from
         self._structure: list[tuple[int, int]] = []  # byte ranges every message of the layout shares
         self._index: np.ndarray | SkipReason = SkipReason.MISSING_JOINT
+        self._gather: tuple[int, int, np.ndarray, bool, bool] | SkipReason = SkipReason.MISSING_JOINT
         self._stamp = struct.Struct("<iI")
 
     def _same_layout(self, raw: bytes) -> bool:
         template = self._template
-        return (
-            self._layout is not None
-            and len(raw) == len(template)
-            and all(raw[a:b] == template[a:b] for a, b in self._structure)
-        )
+        if self._layout is None or len(raw) != len(template):
+            return False
+        for a, b in self._structure:
+            if raw[a:b] != template[a:b]:
+                return False
+        return True
 
     def _learn_layout(self, raw: bytes) -> bool:
         """Parse a new layout; rebuild the index map if its names differ. False if unreadable."""
@@ -66,7 +68,24 @@ class JointStateReader:
             self._index = self.index_map(list(layout.names))
         self._layout, self._template, self._structure = layout, raw, true_runs(layout.structure)
         self._stamp = struct.Struct(layout.endian + "iI")
+        self._gather = self._gather_map(layout)
         return True
+
+    def _gather_map(self, layout: MessageLayout) -> tuple[int, int, np.ndarray, bool, bool] | SkipReason:
+        """How :meth:`read` takes the arm's values of this layout in one step: (offset of the first
+        float64 read, count of float64 from there, (k, 7) positions of the arm's q, then q̇ and effort
+        if present, among them; q̇ present; effort present), or why no sample can be read."""
+        index = self._index
+        if isinstance(index, SkipReason):
+            return index
+        n = len(layout.names)
+        (p, n_position), (v, n_velocity), (e, n_effort) = layout.arrays
+        if n_position != n or n_velocity not in (0, n) or n_effort not in (0, n):
+            return SkipReason.ARRAY_LENGTH
+        # Every float64[]'s data is 8-aligned from the same base, so all lie on one float64 grid from p.
+        offsets = [p] + [offset for offset, length in ((v, n_velocity), (e, n_effort)) if length]
+        rows = np.array([(offset - p) // 8 for offset in offsets], dtype=np.intp)
+        return p, int(rows[-1]) + n, rows[:, None] + index[None, :], n_velocity > 0, n_effort > 0
 
     def index_map(self, names: list[str]) -> np.ndarray | SkipReason:
         """(7,) positions of the arm's joints in ``names``; MISSING_JOINT if one is absent or repeated."""
@@ -78,21 +97,18 @@ class JointStateReader:
         """The arm's (7,) q, q̇ (None if velocity is empty), effort (None if empty) and stamp."""
         if not self._same_layout(raw) and not self._learn_layout(raw):
             return SkipReason.UNREADABLE
-        index = self._index
-        if isinstance(index, SkipReason):
-            return index
+        gather = self._gather
+        if isinstance(gather, SkipReason):
+            return gather
+        first, count, rows, velocity, effort = gather
         layout = self._layout
-        n = len(layout.names)
-        (p, n_position), (v, n_velocity), (e, n_effort) = layout.arrays
-        if n_position != n or n_velocity not in (0, n) or n_effort not in (0, n):
-            return SkipReason.ARRAY_LENGTH
-        f8 = layout.endian + "f8"
         sec, nanosec = self._stamp.unpack_from(raw, layout.stamp_offset)
+        values = np.frombuffer(raw, layout.endian + "f8", count, first)[rows].astype(float, copy=False)
         return ArmSample(
             sec * 1_000_000_000 + nanosec,
-            np.frombuffer(raw, f8, n, p)[index].astype(float, copy=False),
-            np.frombuffer(raw, f8, n, v)[index].astype(float, copy=False) if n_velocity else None,
-            np.frombuffer(raw, f8, n, e)[index].astype(float, copy=False) if n_effort else None,
+            values[0],
+            values[1] if velocity else None,
+            values[1 + velocity] if effort else None,
         )
 
 
@@ -102,28 +118,30 @@ class ArmJointStateWriter:
     def __init__(self, joint_names: Sequence[str]) -> None:
         zeros = [0.0] * len(joint_names)
         template = JointState(name=list(joint_names), position=zeros, velocity=zeros, effort=zeros)
-        self._template = bytes(serialize_message(template))
-        layout = parse_layout(self._template, ros1=False, n_arrays=N_ARRAYS)
+        self._buffer = bytearray(serialize_message(template))  # the message being written
+        layout = parse_layout(bytes(self._buffer), ros1=False, n_arrays=N_ARRAYS)
         self._stamp = struct.Struct(layout.endian + "iI")
         self._stamp_offset = layout.stamp_offset
-        self._dtype = layout.endian + "f8"
-        self._spans = [slice(offset, offset + 8 * n) for offset, n in layout.arrays]
+        # Writable float64 views of the buffer's position, velocity and effort arrays, (7,) each.
+        self._position, self._velocity, self._effort = (
+            np.frombuffer(self._buffer, layout.endian + "f8", n, offset) for offset, n in layout.arrays
+        )
 
-    def messages(self, torques: ModelTorques) -> tuple[bytes, bytes, bytes | None, bytes | None]:
-        """CDR bytes of the gravity, inverse-dynamics, residual and external-torque messages (the last
-        two None without effort)."""
-        position, velocity, effort = self._spans
-        buffer = bytearray(self._template)
-        self._stamp.pack_into(buffer, self._stamp_offset, *divmod(torques.stamp_ns, 1_000_000_000))
-        buffer[position] = torques.q.astype(self._dtype).tobytes()
-        buffer[velocity] = torques.qd.astype(self._dtype).tobytes()
+    def messages(
+        self, torques: ModelTorques, wanted: tuple[bool, bool, bool, bool] = (True, True, True, True)
+    ) -> tuple[bytes | None, bytes | None, bytes | None, bytes | None]:
+        """CDR bytes of the gravity, inverse-dynamics, residual and external-torque messages; None for
+        one not ``wanted`` and, without effort, for the last two."""
+        self._stamp.pack_into(self._buffer, self._stamp_offset, *divmod(torques.stamp_ns, 1_000_000_000))
+        self._position[:] = torques.q
+        self._velocity[:] = torques.qd
         out = []
-        for torque in (torques.gravity, torques.tau, torques.residual, torques.external_torque):
-            if torque is None:
+        for torque, want in zip((torques.gravity, torques.tau, torques.residual, torques.external_torque), wanted):
+            if torque is None or not want:
                 out.append(None)
                 continue
-            buffer[effort] = torque.astype(self._dtype).tobytes()
-            out.append(bytes(buffer))
+            self._effort[:] = torque
+            out.append(bytes(self._buffer))
         return out[0], out[1], out[2], out[3]
 
 

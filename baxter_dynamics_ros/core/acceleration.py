@@ -21,6 +21,7 @@ choice (``process --acceleration``, the node's ``estimator`` parameter).
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -88,7 +89,7 @@ class FirstDifference:
         if previous is None:
             self._u = u
             return np.zeros_like(u)
-        if not (np.isfinite(dt_s) and dt_s > 0):
+        if not (math.isfinite(dt_s) and dt_s > 0):
             raise ValueError(f"dt_s must be positive and finite, got {dt_s}")
         self._u = u
         return (u - previous) / dt_s
@@ -124,7 +125,7 @@ class LowPassDifferentiator:
         if self._x is None:
             self._x, self._xd, self._u = u.copy(), np.zeros_like(u), u.copy()
             return np.zeros_like(u)
-        if not (np.isfinite(dt_s) and dt_s > 0):
+        if not (math.isfinite(dt_s) and dt_s > 0):
             raise ValueError(f"dt_s must be positive and finite, got {dt_s}")
         _lowpass_step(self._x, self._xd, self._u, u, self._wc, self.damping, dt_s)
         return self._xd.copy()

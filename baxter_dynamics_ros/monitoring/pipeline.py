@@ -82,6 +82,10 @@ def make_estimator(name: str, cutoff_hz: float) -> LowPassDifferentiator | First
         raise SettingsError(f"cutoff_hz: {err}") from err
 
 
+#: Stands for an absent array (no q̇, no effort) in the compiled checks: nothing to check.
+_ABSENT = np.zeros(0)
+
+
 @njit(cache=True)
 def _finite(x: np.ndarray) -> bool:
     for v in x.flat:
@@ -98,9 +102,27 @@ def _within(x: np.ndarray, low: np.ndarray, high: np.ndarray) -> bool:
     return True
 
 
-def _all_finite(x: np.ndarray | None) -> bool:
-    """Whether x holds no NaN or ±inf (None: True); compiled, as the node asks it six times a sample."""
-    return x is None or _finite(x)
+@njit(cache=True)
+def _input_fault(q: np.ndarray, qd: np.ndarray, effort: np.ndarray, bounds: np.ndarray) -> int:
+    """0 for a usable sample, 1 if a value is NaN or ±inf (step 1), 2 if it is implausible (step 2).
+
+    q (7,); qd, effort (7,) or :data:`_ABSENT`; bounds (6, 7): low and high q, q̇, effort, in turn.
+    One compiled call, as the node asks it of every sample."""
+    if not (_finite(q) and _finite(qd) and _finite(effort)):
+        return 1
+    if not (_within(q, bounds[0], bounds[1]) and _within(qd, bounds[2], bounds[3]) and _within(effort, bounds[4], bounds[5])):
+        return 2
+    return 0
+
+
+@njit(cache=True)
+def _all_finite(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray) -> bool:
+    """Whether none of the arrays (any shape; :data:`_ABSENT` for none) holds NaN or ±inf."""
+    return _finite(a) and _finite(b) and _finite(c) and _finite(d)
+
+
+def _given(x: np.ndarray | None) -> np.ndarray:
+    return _ABSENT if x is None else x
 
 
 class ResidualPipeline:
@@ -126,14 +148,14 @@ class ResidualPipeline:
         self._last_stamp_ns: int | None = None  # of the last sample taken in (stamps must increase from it)
         self._last_q: np.ndarray | None = None  # its positions, which q̇ is differenced from
         self._estimated_ns: int | None = None  # stamp of the last q̇ the estimator (and the observer) took
-        # Plausibility bounds (module docstring, step 2), (7,) each: q within [q_low, q_high],
-        # |q̇| ≤ qd_max, |effort| ≤ effort_max.
-        self._q_low = self.arm.lower_rad - POSITION_MARGIN_RAD
-        self._q_high = self.arm.upper_rad + POSITION_MARGIN_RAD
-        self._qd_max = PLAUSIBLE_FACTOR * self.arm.velocity_limit_rad_s
-        self._qd_min = -self._qd_max
-        self._effort_max = PLAUSIBLE_FACTOR * self.arm.effort_limit_nm
-        self._effort_min = -self._effort_max
+        # Plausibility bounds (module docstring, step 2): q within [q_low, q_high], |q̇| ≤ qd_max,
+        # |effort| ≤ effort_max; one (6, 7) array, rows low and high of q, q̇, effort in turn.
+        qd_max = PLAUSIBLE_FACTOR * self.arm.velocity_limit_rad_s
+        effort_max = PLAUSIBLE_FACTOR * self.arm.effort_limit_nm
+        self._bounds = np.array(
+            [self.arm.lower_rad - POSITION_MARGIN_RAD, self.arm.upper_rad + POSITION_MARGIN_RAD, -qd_max, qd_max, -effort_max, effort_max],
+            dtype=np.float64,
+        )
         # One batch of two rows for the compiled core: row 0 gives τ(q, q̇, q̈), row 1 G(q) = τ(q, 0, 0).
         self._q2 = np.zeros((2, N))
         self._qd2 = np.zeros((2, N))
@@ -162,14 +184,6 @@ class ResidualPipeline:
         self._last_q = None
         self._estimated_ns = None
 
-    def _plausible(self, q: np.ndarray, qd: np.ndarray | None, effort: np.ndarray | None) -> bool:
-        """Whether a sample is one a real Baxter can give (module docstring, step 2)."""
-        return (
-            _within(q, self._q_low, self._q_high)
-            and (qd is None or _within(qd, self._qd_min, self._qd_max))
-            and (effort is None or _within(effort, self._effort_min, self._effort_max))
-        )
-
     def _dynamics(self) -> np.ndarray:
         """(2, 7): τ of the batch rows set in _q2, _qd2, _qdd2 (the compiled kernel: no per-call checks)."""
         out = np.empty((2, N))
@@ -183,10 +197,9 @@ class ResidualPipeline:
         observe: run the momentum observer (its r is ``external_torque``); when False it is
         restarted and r is None, which saves its cost when nothing uses r."""
         stamp_ns, q, qd, effort = sample
-        if not (_all_finite(q) and _all_finite(qd) and _all_finite(effort)):
-            return SkipReason.NON_FINITE_INPUT
-        if not self._plausible(q, qd, effort):
-            return SkipReason.IMPLAUSIBLE_INPUT
+        fault = _input_fault(q, _given(qd), _given(effort), self._bounds)
+        if fault:
+            return SkipReason.NON_FINITE_INPUT if fault == 1 else SkipReason.IMPLAUSIBLE_INPUT
         last_ns = self._last_stamp_ns
         if last_ns is not None:
             if stamp_ns == last_ns:
@@ -201,7 +214,7 @@ class ResidualPipeline:
                 return SkipReason.VELOCITY_WARM_UP
             qd = (q - self._last_q) / ((stamp_ns - last_ns) * 1e-9)
         self._last_stamp_ns, self._last_q = stamp_ns, q
-        if qd_from_positions and not _within(qd, self._qd_min, self._qd_max):
+        if qd_from_positions and not _within(qd, self._bounds[2], self._bounds[3]):
             return SkipReason.IMPLAUSIBLE_INPUT  # the positions jumped; the next sample is differenced from these
         dt_s = 0.0 if self._estimated_ns is None else (stamp_ns - self._estimated_ns) * 1e-9
         self._estimated_ns = stamp_ns
@@ -222,7 +235,7 @@ class ResidualPipeline:
         elif self._observing:  # restart it when it is next needed
             self._observer.reset()
             self._observing = False
-        if not (_all_finite(tau_and_gravity) and _all_finite(qdd) and _all_finite(residual) and _all_finite(external_torque)):
+        if not _all_finite(tau_and_gravity, qdd, _given(residual), _given(external_torque)):
             self.reset()
             return SkipReason.NON_FINITE_MODEL
         return ModelTorques(

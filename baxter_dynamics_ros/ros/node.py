@@ -58,7 +58,8 @@ non-finite residual RMS is never reported OK.
 Speed: joint states are taken as CDR bytes by a thread of their own (:class:`SubscriptionThread`),
 not by the executor, whose Python bookkeeping costs ~0.2 ms per wake-up — a fifth of a core at
 1 kHz, several times the dynamics. The executor serves everything else (parameters, ~/reset, the
-diagnostics timer, /clock); one lock keeps the two threads apart.
+diagnostics timer, /clock, the outputs' "matched" events, which keep their subscriber counts so that
+the joint-state thread asks rmw nothing per sample); one lock keeps the two threads apart.
 
 This module owns the ROS objects and nothing else: the work is done by
 :class:`~baxter_dynamics_ros.monitoring.pipeline.ResidualPipeline` and
@@ -83,7 +84,7 @@ from rclpy.callback_groups import CallbackGroup
 from rclpy.clock import Clock, ClockType, JumpThreshold, TimeJump
 from rclpy.context import Context
 from rclpy.duration import Duration
-from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
+from rclpy.event_handler import PublisherEventCallbacks, QoSPublisherMatchedInfo, SubscriptionEventCallbacks
 from rclpy.exceptions import NameValidationException, ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.guard_condition import GuardCondition
@@ -133,7 +134,8 @@ class SubscriptionThread:
     """Takes every message of one subscription (in :class:`OwnThreadGroup`) in a thread of its own.
 
     A wait set holding just this subscription and a stop condition, as ``rclpy.wait_for_message``
-    builds it; every message waiting is taken and handed to ``callback`` in arrival order. If the
+    builds it; every message is taken and handed to ``callback`` in arrival order, one per wake-up
+    (a second take would ask rmw once more per sample only to find the queue empty). If the
     callback raises, the thread logs the error, keeps it in :attr:`error` and shuts the context
     down, so that the program stops instead of running on deaf.
     """
@@ -154,9 +156,11 @@ class SubscriptionThread:
                 wait_set.add_subscription(handle)
                 wait_set.add_guard_condition(self._stop.handle)
                 wait_set.wait(-1)
-                if wait_set.get_ready_entities("guard_condition"):
+                if wait_set.is_ready("guard_condition", 0):
                     return
-                while (taken := handle.take_message(msg_type, raw)) is not None:
+                # One message per wake-up: with more waiting, the next wait returns at once.
+                taken = handle.take_message(msg_type, raw)
+                if taken is not None:
                     self._callback(taken[0])
         except Exception as err:  # a defect: stop the program rather than leave it deaf
             self.error = err
@@ -216,8 +220,10 @@ class DynamicsNode(Node):
         )
         self._skip_loggers = {reason: self.get_logger().get_child(reason.value) for reason in SkipReason}
 
-        # No QoS-event handlers on our own topics: these profiles match every peer but a
-        # transient-local subscriber, and each handler costs every spin of the executor.
+        # No QoS-incompatibility handlers on our own topics (these profiles match every peer but a
+        # transient-local subscriber). The outputs' "matched" events keep their subscriber counts in
+        # _listeners, which the executor updates as subscribers come and go, so that the joint-state
+        # thread asks rmw nothing per sample.
         outputs = QoSProfile(
             history=HistoryPolicy.KEEP_LAST,
             depth=settings.qos_depth,
@@ -225,9 +231,15 @@ class DynamicsNode(Node):
             durability=DurabilityPolicy.VOLATILE,
         )
         quiet = PublisherEventCallbacks(use_default_callbacks=False)
+        self._listeners = [0, 0, 0, 0]  # subscribers of gravity, inverse_dynamics, residual, external_torque
         self._output_publishers = tuple(
-            self.create_publisher(JointState, f"~/{name}", outputs, event_callbacks=quiet)
-            for name in ("gravity", "inverse_dynamics", "residual", "external_torque")
+            self.create_publisher(
+                JointState,
+                f"~/{name}",
+                outputs,
+                event_callbacks=PublisherEventCallbacks(matched=functools.partial(self.on_matched, k), use_default_callbacks=False),
+            )
+            for k, name in enumerate(("gravity", "inverse_dynamics", "residual", "external_torque"))
         )
         state = QoSProfile(
             history=HistoryPolicy.KEEP_LAST,
@@ -303,22 +315,27 @@ class DynamicsNode(Node):
         start_ns = time.perf_counter_ns()
         with self._lock:
             result = self._reader.read(raw)
+            listeners = self._listeners
             if not isinstance(result, SkipReason):
                 # The observer only while something uses r: detection, or a subscriber of ~/external_torque.
-                observe = self._monitor.active or self._output_publishers[3].get_subscription_count() > 0
-                result = self._pipeline.process(result, observe)
+                result = self._pipeline.process(result, self._monitor.active or listeners[3] > 0)
             if isinstance(result, SkipReason):
                 self._log_skip(result)
             else:
                 # A DDS write costs more than the dynamics: only to topics someone listens to.
-                for publisher, message in zip(self._output_publishers, self._writer.messages(result)):
-                    if message is not None and publisher.get_subscription_count():
+                wanted = (listeners[0] > 0, listeners[1] > 0, listeners[2] > 0, listeners[3] > 0)
+                for publisher, message in zip(self._output_publishers, self._writer.messages(result, wanted)):
+                    if message is not None:
                         publisher.publish(message)
                 if result.residual is not None:  # a sample with effort
                     changed = self._monitor.update(result.stamp_ns, result.external_torque, result.qd, result.q, result.effort)
                     if changed is not None:
                         self._collision_publisher.publish(Bool(data=changed))
             self._health.record(result, time.perf_counter_ns() - start_ns)
+
+    def on_matched(self, output: int, info: QoSPublisherMatchedInfo) -> None:
+        """A subscriber of output ``output`` (an index of _output_publishers) came or went."""
+        self._listeners[output] = info.current_count
 
     def _log_skip(self, reason: SkipReason) -> None:
         text = f"sample skipped: {SKIP_DESCRIPTIONS[reason]}"

@@ -123,6 +123,16 @@ def test_non_finite_input_is_skipped_without_touching_the_state(states, field: s
     assert_close(stacked([results[k] for k in keep], "qdd"), qdd, "q̈ of the good samples", atol=1e-9)
 
 
+@pytest.mark.parametrize(("non_finite", "implausible"), [("effort", "q"), ("q", "effort"), ("qd", "q")])
+def test_a_non_finite_value_is_the_cause_even_beside_an_implausible_one(states, non_finite: str, implausible: str) -> None:
+    stamps, q, qd, effort = states
+    spoilt = {"q": q[3].copy(), "qd": qd[3].copy(), "effort": effort[3].copy()}
+    spoilt[non_finite][6] = math.nan
+    spoilt[implausible][0] = 1e30
+    sample = ArmSample(int(stamps[3]), spoilt["q"], spoilt["qd"], spoilt["effort"])
+    assert ResidualPipeline(ARM).process(sample) is SkipReason.NON_FINITE_INPUT
+
+
 def test_duplicate_stamp_is_skipped_and_backwards_stamp_resets(states) -> None:
     stamps, q, qd, effort = states
     pipeline = ResidualPipeline(ARM)

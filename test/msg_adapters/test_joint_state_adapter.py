@@ -93,6 +93,15 @@ def test_reader_rebuilds_its_index_map_only_when_the_names_change(monkeypatch: p
     assert len(builds) == 2
 
 
+def test_one_reader_follows_the_layout_from_message_to_message() -> None:
+    """Each array's place changes with the arrays before it: velocity empty, effort empty, both, neither."""
+    reader = JointStateReader(ARM.joint_names)
+    for velocity, effort in [(True, True), (False, True), (True, False), (False, False), (False, True), (True, True)]:
+        sample = reader.read(cdr(velocity=None if velocity else [], effort=None if effort else []))
+        assert_arm_values(sample, velocity=velocity, effort=effort)
+        assert (sample.qd is None, sample.effort is None) == (not velocity, not effort)
+
+
 def test_empty_velocity_or_effort_read_as_none() -> None:
     sample = JointStateReader(ARM.joint_names).read(cdr(velocity=[], effort=[]))
     assert sample.qd is None and sample.effort is None
@@ -151,6 +160,20 @@ def test_writer_messages_carry_the_arm_names_stamp_state_and_torque() -> None:
         np.testing.assert_array_equal(msg.velocity, 10 + np.arange(7.0))
         np.testing.assert_array_equal(msg.effort, effort + np.arange(7.0))
     assert writer.messages(_torques(None))[2] is None
+
+
+def test_writer_writes_only_the_wanted_messages_and_each_sample_afresh() -> None:
+    writer = ArmJointStateWriter(ARM.joint_names)
+    first = writer.messages(_torques(50 + np.arange(7.0)))
+    later = _torques(None)._replace(stamp_ns=STAMP_NS + 1, q=-np.arange(7.0))
+    only_tau = writer.messages(later, (False, True, False, False))
+    assert only_tau[0] is None and only_tau[2] is None and only_tau[3] is None
+    msg = deserialize_message(only_tau[1], JointState)
+    assert _ns(msg.header.stamp) == STAMP_NS + 1
+    np.testing.assert_array_equal(msg.position, -np.arange(7.0))
+    np.testing.assert_array_equal(msg.effort, 40 + np.arange(7.0))
+    assert writer.messages(_torques(50 + np.arange(7.0))) == first  # nothing of the later sample left behind
+    np.testing.assert_array_equal(deserialize_message(first[2], JointState).effort, 50 + np.arange(7.0))
 
 
 def test_writer_handles_negative_stamps() -> None:
