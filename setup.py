@@ -34,8 +34,9 @@ setup(
     python_requires=">=3.10",
     install_requires=["setuptools"],
     extras_require={
-        "pypi": ros_wheels + ["numpy", "numba", "pyyaml", "pin", "cmeel-eigen", "rosbags", "scipy", "matplotlib", "pyarrow"],
-        "test": ["pytest", "hypothesis", "colcon-common-extensions", "mcap"],
+        "pypi": ros_wheels + ["numpy", "numba", "pyyaml", "pin", "cmeel-eigen", "rosbags", "scipy", "matplotlib", "pyarrow", "dask[distributed]==2026.8.0"],
+        "test": ["pytest", "hypothesis", "colcon-common-extensions", "mcap", "dask[distributed]==2026.8.0"],
+        "cluster": ["dask[distributed]==2026.8.0"],
     },
     zip_safe=True,
     maintainer="baxter_dynamics_ros maintainers",
