@@ -45,8 +45,9 @@ setup(
         "pyarrow>=26.0.1",
     ],
     extras_require={
-        "pypi": ros_wheels + ["numpy", "numba", "pyyaml", "pin", "cmeel-eigen", "rosbags", "scipy", "matplotlib", "pyarrow"],
-        "test": ["pytest", "hypothesis", "colcon-common-extensions", "mcap"],
+        "pypi": ros_wheels + ["numpy", "numba", "pyyaml", "pin", "cmeel-eigen", "rosbags", "scipy", "matplotlib", "pyarrow", "dask[distributed]==2026.8.0"],
+        "test": ["pytest", "hypothesis", "colcon-common-extensions", "mcap", "dask[distributed]==2026.8.0"],
+        "cluster": ["dask[distributed]==2026.8.0"],
     },
     zip_safe=True,
     maintainer="baxter_dynamics_ros maintainers",

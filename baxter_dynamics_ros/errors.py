@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-__all__ = ["BaxterDynamicsError", "ModelFileError", "InputShapeError", "RecordingError", "RecordingFileError", "EffectSpecError", "SimulationError", "PlaybackError", "SettingsError", "DiagnosisError", "CollisionError", "OutputError"]
+__all__ = ["BaxterDynamicsError", "ModelFileError", "InputShapeError", "RecordingError", "RecordingFileError", "EffectSpecError", "SimulationError", "PlaybackError", "SettingsError", "DiagnosisError", "CollisionError", "OutputError", "WorkerError"]
 
 
 class BaxterDynamicsError(Exception):
@@ -51,3 +51,7 @@ class CollisionError(BaxterDynamicsError, ValueError):
 
 class OutputError(BaxterDynamicsError):
     """An output cannot be written: a folder or file in the way, no permission, no space."""
+
+
+class WorkerError(BaxterDynamicsError):
+    """Per-file work cannot run in worker processes or on a cluster (scheduler unreachable, a worker died)."""

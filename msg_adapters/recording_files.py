@@ -29,9 +29,11 @@ from baxter_dynamics_ros.errors import RecordingError, RecordingFileError
 from .bag_io import DEFAULT_TOPIC, Progress, read_bag_recording, write_joint_state_bag, write_processed_bag
 from .csv_io import Note, joint_state_columns, read_table_recording, write_processed_table, write_table
 
-__all__ = ["OUTPUT_FORMATS", "TABLE_SUFFIXES", "check_output", "print_to_stderr", "read_recording", "write_joint_states", "write_processed"]
+__all__ = ["BAG_SUFFIXES", "OUTPUT_FORMATS", "TABLE_SUFFIXES", "is_bag_folder", "check_output", "print_to_stderr", "read_recording", "write_joint_states", "write_processed"]
 
 TABLE_SUFFIXES = (".csv", ".txt", ".parquet")
+#: Bag files the readers know (a ROS 2 bag folder, holding metadata.yaml, is read too).
+BAG_SUFFIXES = (".bag", ".mcap", ".db3")
 #: Output extension -> format.
 OUTPUT_FORMATS = {".mcap": "mcap", ".csv": "csv", ".parquet": "parquet"}
 
@@ -63,6 +65,11 @@ def read_recording(
         return read_bag_recording(path, topic=topic, arm=arm, progress=progress)
     except RecordingError as err:
         raise RecordingFileError(f"{path}: {err}") from err
+
+
+def is_bag_folder(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is a ROS 2 bag folder (holds metadata.yaml): one recording, not a folder of them."""
+    return Path(path, "metadata.yaml").is_file()
 
 
 def check_output(path: str | os.PathLike[str], replace: bool = False) -> str:

@@ -1,5 +1,9 @@
 """``baxter-dynamics diagnose --train FILES... [--test FILES...] --out DIR``: the gap diagnosis.
 
+FILES: recordings, ROS 2 bag folders, folders of recordings or quoted patterns
+(:mod:`~baxter_dynamics_ros.cli.inputs`). Each file is read when a pass of the diagnosis needs it
+and reduced to statistics (:mod:`~baxter_dynamics_ros.diagnosis.passes`), in ``--jobs`` worker
+processes or on a dask cluster (``--scheduler``; :mod:`~baxter_dynamics_ros.cli.workers`).
 Parameters are fitted on ``--train`` only; every "after" figure is measured on ``--test``. Without
 ``--test``, the last training file is held out (or, with a single file, its last quarter: whole
 contiguous blocks, never interleaved samples). Refused: a recording given twice (the same file, or
@@ -14,21 +18,22 @@ with its PNG plots and ``DIR/effects.yaml`` (for the node's ``effects_file``). N
 from __future__ import annotations
 
 import argparse
-import hashlib
 import sys
 from collections.abc import Hashable
 from pathlib import Path
 
 from ..errors import DiagnosisError
+from .inputs import expand_inputs
 from .paths import check_paths
+from .workers import add_worker_arguments, file_mapper
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The command's options."""
     from msg_adapters.bag_io import DEFAULT_TOPIC
 
-    parser.add_argument("--train", type=Path, nargs="+", required=True, metavar="FILE", help="recordings to fit on (bags or tables)")
-    parser.add_argument("--test", type=Path, nargs="+", default=[], metavar="FILE", help="held-out recordings to measure on")
+    parser.add_argument("--train", type=Path, nargs="+", required=True, metavar="FILE", help="recordings to fit on (bags, tables, folders of them, quoted patterns)")
+    parser.add_argument("--test", type=Path, nargs="+", default=[], metavar="FILE", help="held-out recordings to measure on (as --train)")
     parser.add_argument("--out", "-o", type=Path, required=True, metavar="DIR", help="output folder (created)")
     parser.add_argument("--arm", choices=("right", "left"), help="arm to diagnose (default: from the joint names)")
     parser.add_argument("--model", type=Path, metavar="YAML", help="arm model file (default: the package's model of the arm)")
@@ -36,47 +41,50 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rate-hz", type=float, metavar="HZ", help="sample rate of tables without a time column, Hz (default: estimated from position and velocity)")
     parser.add_argument("--force", action="store_true", help="replace the outputs of an earlier diagnosis in DIR")
     parser.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None, help="progress bar on stderr (default: when stderr is a terminal)")
+    add_worker_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
     """Diagnose and write the outputs; returns 0 (errors raise BaxterDynamicsError)."""
-    from msg_adapters.recording_files import read_recording
-
     from ..core.arm_model import load_arm_model
     from ..core.output_files import check_outputs
     from ..diagnosis.procedure import diagnose
     from ..diagnosis.report import OUTPUT_FILES, write_diagnosis
     from .progress import ProgressBar
+    from .recording_sources import RecordingFile, inspect
 
     outputs = [args.out / name for name in OUTPUT_FILES]
-    check_paths([*args.train, *args.test], outputs)
+    given = (("--train", expand_inputs(args.train)), ("--test", expand_inputs(args.test)))
+    check_paths([p for _, paths in given for p in paths], outputs)
     check_outputs(outputs, replace=args.force)
-    given = (("--train", args.train), ("--test", args.test))
     _refuse_repeats([(option, str(p), _file_id(p)) for option, paths in given for p in paths], "is the same file as")
     show = sys.stderr.isatty() if args.progress is None else args.progress
 
-    def read(path: Path):
-        return str(path), read_recording(path, topic=args.topic, arm=args.arm, rate_hz=args.rate_hz)
+    def source(path: Path) -> RecordingFile:
+        return RecordingFile(str(path), str(path), args.topic, args.arm, args.rate_hz)
 
-    train = [read(p) for p in args.train]
-    test = [read(p) for p in args.test]
-    sides = {rec.side for _, rec in (*train, *test)}
-    if len(sides) > 1:
-        raise DiagnosisError("the recordings are of different arms; pass --arm right|left")
-    read_in = (("--train", train), ("--test", test))
-    _refuse_repeats([(o, label, _fingerprint(rec)) for o, recs in read_in for label, rec in recs], "holds the same samples as")
-    if not test:
-        if len(train) > 1:
-            test = [train.pop()]
-        else:
-            label, rec = train[0]
-            train, test = _split_last_quarter(label, rec)
-    arm = load_arm_model(args.model if args.model is not None else sides.pop())
-    bar = ProgressBar("diagnosis", show)
-    try:
-        result = diagnose(arm, train, test, progress=bar)
-    finally:
-        bar.close()
+    train, test = ([source(p) for p in paths] for _, paths in given)
+    with file_mapper(args.jobs, args.scheduler) as mapper:
+        seen = mapper(inspect, [*train, *test])
+        for info in seen:
+            for note in info.notes:
+                print(note, file=sys.stderr)
+        sides = {info.side for info in seen}
+        if len(sides) > 1:
+            raise DiagnosisError("the recordings are of different arms; pass --arm right|left")
+        options = ["--train"] * len(train) + ["--test"] * len(test)
+        _refuse_repeats([(o, s.label, info.digest) for o, s, info in zip(options, [*train, *test], seen)], "holds the same samples as")
+        if not test:
+            if len(train) > 1:
+                test = [train.pop()]
+            else:
+                train, test = _split_last_quarter(train[0], seen[0].samples, seen[0].span_s)
+        arm = load_arm_model(args.model if args.model is not None else sides.pop())
+        bar = ProgressBar("diagnosis", show)
+        try:
+            result = diagnose(arm, train, test, progress=bar, mapper=mapper)
+        finally:
+            bar.close()
     paths = write_diagnosis(result, args.out)
     print(_summary(result))
     print(f"report: {paths['report.html']}")
@@ -103,29 +111,20 @@ def _file_id(path: Path) -> tuple[int, int]:
     return st.st_dev, st.st_ino
 
 
-def _fingerprint(rec) -> str:
-    """A digest of a recording's samples (q, q̇, effort): equal for copies of one recording."""
-    digest = hashlib.sha256()
-    for array in (rec.q, rec.qd, rec.effort):
-        digest.update(array.tobytes())
-    return digest.hexdigest()
+def _split_last_quarter(source, samples: int, span_s: float):
+    """A lone recording as ([its first three quarters], [its last quarter]), whole contiguous parts."""
+    from dataclasses import replace
 
+    from ..core.recording import MIN_RECORDING_S, MIN_RECORDING_SAMPLES
 
-def _split_last_quarter(label, rec):
-    from ..core.recording import MIN_RECORDING_S, MIN_RECORDING_SAMPLES, Recording
-
-    n = len(rec)
-    cut = (3 * n) // 4
-    if n - cut < MIN_RECORDING_SAMPLES or rec.span_s / 4 < MIN_RECORDING_S:
+    cut = (3 * samples) // 4
+    if samples - cut < MIN_RECORDING_SAMPLES or span_s / 4 < MIN_RECORDING_S:
         raise DiagnosisError(
-            f"{label}: {n} samples, {rec.span_s:.2f} s, are too few to hold out its last quarter "
+            f"{source.label}: {samples} samples, {span_s:.2f} s, are too few to hold out its last quarter "
             f"({MIN_RECORDING_SAMPLES} samples and {MIN_RECORDING_S:g} s); give --test data"
         )
-
-    def part(a: int, b: int) -> Recording:
-        return Recording(rec.side, rec.joint_names, rec.stamps_ns[a:b], rec.q[a:b], rec.qd[a:b], rec.effort[a:b])
-
-    return [(f"{label}[0:{cut}]", part(0, cut))], [(f"{label}[{cut}:{n}]", part(cut, n))]
+    label = source.label
+    return [replace(source, label=f"{label}[0:{cut}]", rows=(0, cut))], [replace(source, label=f"{label}[{cut}:{samples}]", rows=(cut, samples))]
 
 
 def _summary(result) -> str:

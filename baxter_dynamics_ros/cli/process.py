@@ -3,16 +3,25 @@
 Reads joint states from a bag (ROS 1 ``.bag``, ROS 2 directory, ``.mcap``, ``.db3``) or a table
 (``.csv``, ``.txt``, ``.parquet``), estimates q̈, computes gravity, inverse dynamics and residual,
 and writes them where ``--out`` says: a ``.mcap`` ROS 2 bag with the live node's topics, a ``.csv``
-or ``.parquet`` table. Never imports rclpy.
+or ``.parquet`` table. INPUT may also be several files, a folder of recordings or a quoted pattern
+(:mod:`~baxter_dynamics_ros.cli.inputs`); when it stands for more than one recording, ``--out`` is a
+folder that gets ``<name>.<--format>`` for each, the files processed in ``--jobs`` worker processes
+and the outputs moved into place together once all are written (none if one fails). Never imports
+rclpy.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
+from ..errors import OutputError
+from .inputs import expand_inputs
 from .paths import check_paths
+from .workers import add_worker_arguments, file_mapper
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -21,11 +30,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
     from ..core.acceleration import ESTIMATORS
 
-    parser.add_argument("input", type=Path, metavar="INPUT", help="bag (.bag, ROS 2 folder, .mcap, .db3) or table (.csv, .txt, .parquet)")
+    parser.add_argument(
+        "input", type=Path, nargs="+", metavar="INPUT",
+        help="bag (.bag, ROS 2 folder, .mcap, .db3) or table (.csv, .txt, .parquet); or several, a folder of them, a quoted pattern",
+    )
     parser.add_argument(
         "--out", "-o", type=Path, required=True, metavar="OUTPUT",
-        help="output: .mcap (ROS 2 bag with the live node's topics), .csv or .parquet",
+        help="output: .mcap (ROS 2 bag with the live node's topics), .csv or .parquet; for several inputs a folder (made if missing)",
     )
+    parser.add_argument("--format", choices=("mcap", "csv", "parquet"), default="mcap", help="output format of each file when --out is a folder (default mcap)")
     parser.add_argument("--arm", choices=("right", "left"), help="arm to process (default: from the joint names)")
     parser.add_argument("--model", type=Path, metavar="YAML", help="arm model file (default: the package's model of the arm)")
     parser.add_argument("--topic", default=DEFAULT_TOPIC, help=f"joint-state topic of a bag (default {DEFAULT_TOPIC})")
@@ -47,29 +60,66 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--progress", action=argparse.BooleanOptionalAction, default=None,
         help="progress bar on stderr (default: when stderr is a terminal)",
     )
+    add_worker_arguments(parser, cluster=False)
 
 
 def run(args: argparse.Namespace) -> int:
     """Process args.input into args.out; returns 0 (errors raise BaxterDynamicsError)."""
-    from msg_adapters.recording_files import check_output, read_recording, write_processed
+    from msg_adapters.recording_files import check_output
+
+    from ..core.output_files import staged_outputs
+
+    inputs = expand_inputs(args.input)
+    options = _Options(args.model, args.topic, args.arm, args.rate_hz, args.acceleration, args.cutoff_hz, args.force)
+    if len(inputs) == 1:
+        check_paths(inputs, [args.out])
+        check_output(args.out, replace=args.force)  # before reading: fail fast
+        show = sys.stderr.isatty() if args.progress is None else args.progress
+        print(f"{args.out}: {_process_one(options, (inputs[0], args.out), show)}")
+        return 0
+    outputs = [args.out / f"{p.stem if p.suffix else p.name}.{args.format}" for p in inputs]
+    clash = next((o for k, o in enumerate(outputs) if o in outputs[:k]), None)
+    if clash is not None:
+        raise OutputError(f"{clash}: two inputs would be written here; give inputs with different names")
+    check_paths(inputs, [args.out, *outputs])
+    for out in outputs:
+        check_output(out, replace=args.force)
+    with staged_outputs(outputs) as staged, file_mapper(args.jobs, None) as mapper:
+        done = mapper(partial(_process_one, options), list(zip(inputs, staged)))
+    for out, what in zip(outputs, done):
+        print(f"{out}: {what}")
+    return 0
+
+
+@dataclass(frozen=True)
+class _Options:
+    model: Path | None
+    topic: str
+    arm: str | None
+    rate_hz: float | None
+    acceleration: str
+    cutoff_hz: float | None
+    force: bool
+
+
+def _process_one(options: _Options, job: tuple[Path, Path], show: bool = False) -> str:
+    """Read, process and write one file (job: input, output); what was done, in words."""
+    from msg_adapters.recording_files import read_recording, write_processed
 
     from ..core.arm_model import load_arm_model
     from ..core.processing import process_recording
     from .progress import ProgressBar
 
-    check_paths([args.input], [args.out])
-    check_output(args.out, replace=args.force)  # before reading: fail fast
-    show = sys.stderr.isatty() if args.progress is None else args.progress
+    source, out = job
     reading = ProgressBar("reading", show)  # writing goes in bulk, a few seconds at most: no bar
     try:
-        recording = read_recording(args.input, topic=args.topic, arm=args.arm, rate_hz=args.rate_hz, progress=reading)
+        recording = read_recording(source, topic=options.topic, arm=options.arm, rate_hz=options.rate_hz, progress=reading)
     finally:
         reading.close()
-    arm = load_arm_model(args.model if args.model is not None else recording.side)
-    processed = process_recording(arm, recording, acceleration=args.acceleration, cutoff_hz=args.cutoff_hz)
-    write_processed(args.out, processed, input_topic=args.topic, replace=args.force)
-    print(
-        f"{args.out}: {len(recording)} samples of the {recording.side} arm "
-        f"({recording.duration_s:.1f} s at {recording.rate_hz:.1f} Hz), q̈ by {args.acceleration}"
+    arm = load_arm_model(options.model if options.model is not None else recording.side)
+    processed = process_recording(arm, recording, acceleration=options.acceleration, cutoff_hz=options.cutoff_hz)
+    write_processed(out, processed, input_topic=options.topic, replace=options.force)
+    return (
+        f"{len(recording)} samples of the {recording.side} arm "
+        f"({recording.duration_s:.1f} s at {recording.rate_hz:.1f} Hz), q̈ by {options.acceleration}"
     )
-    return 0

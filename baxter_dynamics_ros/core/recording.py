@@ -29,6 +29,7 @@ __all__ = [
     "estimate_rate_hz",
     "require_activity",
     "require_length",
+    "require_total_span",
 ]
 
 #: An arm moves in a recording when one of its joint angles spans at least this much, rad (0.57°:
@@ -146,7 +147,12 @@ def require_length(recordings: Sequence[tuple[str, Recording]], what: str, total
                 f"{label}: {len(rec)} samples, {rec.span_s:.2f} s; a {what} recording needs at least "
                 f"{MIN_RECORDING_SAMPLES} samples and {MIN_RECORDING_S:g} s"
             )
-    total = sum(rec.span_s for _, rec in recordings)
+    require_total_span([rec.span_s for _, rec in recordings], what, total_s)
+
+
+def require_total_span(spans_s: Sequence[float], what: str, total_s: float) -> None:
+    """Refuse (RecordingError) recordings of spans_s (s, :attr:`Recording.span_s`) shorter than total_s together."""
+    total = sum(spans_s)
     if total < total_s:
         raise RecordingError(f"the {what} recordings hold {total:.2f} s together; at least {total_s:g} s are needed")
 

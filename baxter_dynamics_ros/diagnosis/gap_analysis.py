@@ -13,6 +13,13 @@ Frequency content: the residual is split by the core's zero-phase low-pass
 (:func:`~baxter_dynamics_ros.core.acceleration.zero_phase_lowpass`, order 2) at
 ``systematic_cutoff_hz`` (2 Hz) into a systematic part (what a model of the robot's physics could
 explain) and the rest (sensor noise and noisy differentiated accelerations).
+
+Several recordings are summarised without holding them together: each is reduced to additive sums
+(:func:`gap_sums`: counts, Σ r and Σ r² per band and joint, with its own filter and reversals, so
+nothing is filtered across the seam of two recordings), the sums are added in the recordings'
+order and finished by :func:`gap_summary`. The angle bins' edges are the quantiles of q over all
+recordings, found exactly from per-recording histograms (:func:`angle_histogram`) and the values
+in the few bins that hold a quantile (:func:`values_in_bins`, :func:`quantile_edges`).
 """
 
 from __future__ import annotations
@@ -24,7 +31,10 @@ import numpy as np
 from ..core.acceleration import zero_phase_lowpass
 from ..core.joints import S1
 
-__all__ = ["Band", "GapSummary", "summarise_gap"]
+__all__ = [
+    "Band", "GapOptions", "GapSums", "GapSummary", "angle_histogram", "gap_sums", "gap_summary", "quantile_edges", "summarise_gap",
+    "values_in_bins", "wanted_bins",
+]
 
 
 
@@ -74,22 +84,6 @@ class GapSummary:
         }
 
 
-def _masked_stats(residual: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Fraction, RMS and mean of each column of residual (N, 7) over mask (N, 7); NaN where empty."""
-    count = mask.sum(axis=0)
-    safe = np.maximum(count, 1)
-    rms = np.sqrt(np.where(mask, residual**2, 0.0).sum(axis=0) / safe)
-    mean = np.where(mask, residual, 0.0).sum(axis=0) / safe
-    empty = count == 0
-    rms[empty] = mean[empty] = np.nan
-    return count / len(residual), rms, mean
-
-
-def _band(regime: str, label: str, residual: np.ndarray, mask: np.ndarray) -> Band:
-    fraction, rms, mean = _masked_stats(residual, mask)
-    return Band(regime, label, fraction, rms, mean)
-
-
 def _reversal_mask(qd: np.ndarray, still_rad_s: float, window: int) -> np.ndarray:
     """(N, 7): samples within `window` samples of a sign change of a moving joint's velocity."""
     moving_sign = np.where(np.abs(qd) >= still_rad_s, np.sign(qd), 0.0)
@@ -104,6 +98,183 @@ def _reversal_mask(qd: np.ndarray, still_rad_s: float, window: int) -> np.ndarra
     return near
 
 
+@dataclass(frozen=True)
+class GapOptions:
+    """The regime thresholds (module docstring); the angle bins' edges come separately."""
+
+    still_rad_s: float = 0.02
+    reversal_window_s: float = 0.05
+    speed_edges_rad_s: tuple[float, ...] = (0.1, 0.3, 0.7)
+    acceleration_edges_rad_s2: tuple[float, ...] = (0.5, 2.0, 5.0)
+    angle_bins: int = 4
+    systematic_cutoff_hz: float = 2.0
+
+
+@dataclass(frozen=True)
+class GapSums:
+    """Additive statistics of a residual over some samples (arrays (7,) or (bands, 7)).
+
+    samples: count; sum_r, sum_r2: Σ r and Σ r²; systematic_r2, noise_r2: Σ of the squared
+    systematic part and rest; labels: (regime, label) per band; band_count, band_r, band_r2:
+    per band the samples in it, Σ r and Σ r² over them.
+    """
+
+    samples: int
+    sum_r: np.ndarray
+    sum_r2: np.ndarray
+    systematic_r2: np.ndarray
+    noise_r2: np.ndarray
+    labels: tuple[tuple[str, str], ...]
+    band_count: np.ndarray
+    band_r: np.ndarray
+    band_r2: np.ndarray
+
+    def __add__(self, other: GapSums) -> GapSums:
+        if self.labels != other.labels:
+            raise ValueError("gap sums of different bands cannot be added")
+        return GapSums(
+            self.samples + other.samples, self.sum_r + other.sum_r, self.sum_r2 + other.sum_r2,
+            self.systematic_r2 + other.systematic_r2, self.noise_r2 + other.noise_r2, self.labels,
+            self.band_count + other.band_count, self.band_r + other.band_r, self.band_r2 + other.band_r2,
+        )  # fmt: skip
+
+
+def _angles(q: np.ndarray) -> tuple[tuple[str, np.ndarray], ...]:
+    """The angle regimes' values (N, 7): each joint's own angle, and q_s1 for every joint."""
+    return (("angle", q), ("angle_s1", np.repeat(q[:, S1 : S1 + 1], q.shape[1], axis=1)))
+
+
+def gap_sums(
+    residual: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, rate_hz: float, angle_edges: np.ndarray, options: GapOptions = GapOptions()
+) -> GapSums:
+    """The sums of one recording's residual (N, 7) N·m at states q, qd, qdd (N, 7) sampled at rate_hz.
+
+    angle_edges: (2, angle_bins + 1, 7) the edges of the ``angle`` and ``angle_s1`` bins
+    (:func:`quantile_edges`)."""
+    o = options
+    residual = np.asarray(residual, dtype=float)
+    if len(residual) < 16:
+        raise ValueError(f"need at least 16 samples to summarise a residual, got {len(residual)}")
+    systematic = zero_phase_lowpass(residual, rate_hz, o.systematic_cutoff_hz)
+    bands: list[tuple[str, str, np.ndarray]] = []
+    speed = np.abs(qd)
+    bands.append(("still", f"|qd| < {o.still_rad_s:g} rad/s", speed < o.still_rad_s))
+    window = max(1, int(round(o.reversal_window_s * rate_hz)))
+    bands.append(("reversal", f"within {o.reversal_window_s:g} s of a reversal", _reversal_mask(qd, o.still_rad_s, window)))
+    for regime, values, edges, unit in (
+        ("speed", speed, o.speed_edges_rad_s, "rad/s"),
+        ("acceleration", np.abs(qdd), o.acceleration_edges_rad_s2, "rad/s²"),
+    ):
+        bounds = (0.0, *edges, np.inf)
+        for lo, hi in zip(bounds[:-1], bounds[1:]):
+            label = f"{lo:g}–{hi:g} {unit}" if np.isfinite(hi) else f"≥ {lo:g} {unit}"
+            bands.append((regime, label, (values >= lo) & (values < hi)))
+    for (regime, angle), edges in zip(_angles(q), angle_edges):
+        for b in range(o.angle_bins):
+            lo, hi = edges[b], edges[b + 1]
+            inside = (angle >= lo) & ((angle < hi) if b < o.angle_bins - 1 else (angle <= hi))
+            label = f"bin {b + 1}/{o.angle_bins}" + (f" q_s1 {lo[S1]:+.2f}…{hi[S1]:+.2f} rad" if regime == "angle_s1" else " of the joint's range")
+            bands.append((regime, label, inside))
+    masks = np.stack([m for _, _, m in bands])
+    return GapSums(
+        len(residual), residual.sum(axis=0), (residual**2).sum(axis=0), (systematic**2).sum(axis=0), ((residual - systematic) ** 2).sum(axis=0),
+        tuple((r, l) for r, l, _ in bands), masks.sum(axis=1), np.where(masks, residual, 0.0).sum(axis=1), np.where(masks, residual**2, 0.0).sum(axis=1),
+    )  # fmt: skip
+
+
+def gap_summary(joint_names: tuple[str, ...], sums: GapSums) -> GapSummary:
+    """The summary of (the added) sums: RMS, mean, shares and bands; NaN in an empty band."""
+    n = sums.samples
+    rms = np.sqrt(sums.sum_r2 / n)
+    mean = sums.sum_r / n
+    share = rms**2 / max(float(np.sum(rms**2)), 1e-300)
+    safe = np.maximum(sums.band_count, 1)
+    band_rms = np.sqrt(sums.band_r2 / safe)
+    band_mean = sums.band_r / safe
+    empty = sums.band_count == 0
+    band_rms[empty] = band_mean[empty] = np.nan
+    bands = tuple(
+        Band(regime, label, sums.band_count[k] / n, band_rms[k], band_mean[k]) for k, (regime, label) in enumerate(sums.labels)
+    )
+    return GapSummary(tuple(joint_names), rms, mean, share, np.sqrt(sums.systematic_r2 / n), np.sqrt(sums.noise_r2 / n), bands)
+
+
+# ----------------------------------------------------------------------------- exact quantiles by parts
+#: Histogram bins per joint and angle regime for the quantiles (the range of a float is split evenly).
+HISTOGRAM_BINS = 4096
+#: The histograms' range, rad: every joint angle of any arm lies within it.
+HISTOGRAM_RANGE_RAD = (-2.0 * np.pi, 2.0 * np.pi)
+
+
+def _bin_of(values: np.ndarray) -> np.ndarray:
+    lo, hi = HISTOGRAM_RANGE_RAD
+    return np.clip(((values - lo) / (hi - lo) * HISTOGRAM_BINS).astype(np.int64), 0, HISTOGRAM_BINS - 1)
+
+
+def angle_histogram(q: np.ndarray) -> np.ndarray:
+    """(2, 7, HISTOGRAM_BINS) counts of one recording's angle values (q (N, 7) rad), per regime and column."""
+    out = np.zeros((2, q.shape[1], HISTOGRAM_BINS), dtype=np.int64)
+    for r, (_, angle) in enumerate(_angles(q)):
+        bins = _bin_of(angle)
+        for j in range(q.shape[1]):
+            out[r, j] = np.bincount(bins[:, j], minlength=HISTOGRAM_BINS)
+    return out
+
+
+def _ranks(samples: int, bins: int) -> np.ndarray:
+    """The order statistics (0-based) that numpy's linear quantiles at k / bins use, and the weights."""
+    h = (samples - 1) * np.linspace(0.0, 1.0, bins + 1)
+    low = np.floor(h).astype(np.int64)
+    return np.stack([low, np.minimum(low + 1, samples - 1)]), h - low
+
+
+def wanted_bins(histogram: np.ndarray, angle_bins: int = GapOptions.angle_bins) -> np.ndarray:
+    """(2, 7, HISTOGRAM_BINS) bool: the bins that hold an order statistic of a quantile edge."""
+    samples = int(histogram[0, 0].sum())
+    ranks, _ = _ranks(samples, angle_bins)
+    cum = np.cumsum(histogram, axis=-1)
+    out = np.zeros(histogram.shape, dtype=bool)
+    for r in range(histogram.shape[0]):
+        for j in range(histogram.shape[1]):
+            out[r, j, np.searchsorted(cum[r, j], ranks.ravel(), side="right")] = True
+    return out
+
+
+def values_in_bins(q: np.ndarray, wanted: np.ndarray) -> list[list[np.ndarray]]:
+    """One recording's angle values (q (N, 7) rad) that fall in the wanted bins, per regime and column."""
+    out = []
+    for r, (_, angle) in enumerate(_angles(q)):
+        bins = _bin_of(angle)
+        out.append([angle[wanted[r, j][bins[:, j]], j] for j in range(q.shape[1])])
+    return out
+
+
+def quantile_edges(histogram: np.ndarray, wanted: np.ndarray, values: list[list[list[np.ndarray]]], angle_bins: int = GapOptions.angle_bins) -> np.ndarray:
+    """(2, angle_bins + 1, 7) edges: numpy's linear quantiles at k / angle_bins of all recordings' angles.
+
+    histogram: the recordings' added :func:`angle_histogram`; wanted: :func:`wanted_bins` of it;
+    values: each recording's :func:`values_in_bins`, in the recordings' order."""
+    samples = int(histogram[0, 0].sum())
+    ranks, weight = _ranks(samples, angle_bins)
+    cum = np.cumsum(histogram, axis=-1)
+    edges = np.empty((histogram.shape[0], angle_bins + 1, histogram.shape[1]))
+    for r in range(histogram.shape[0]):
+        for j in range(histogram.shape[1]):
+            held = np.sort(np.concatenate([v[r][j] for v in values]))  # every value in the wanted bins, in bin order
+            before = np.concatenate([[0], cum[r, j]])[np.flatnonzero(wanted[r, j])]  # samples below each wanted bin
+            start = np.concatenate([[0], np.cumsum(histogram[r, j][wanted[r, j]])[:-1]])  # its first value in held
+
+            def order_statistic(k: int) -> float:
+                b = np.searchsorted(before, k, side="right") - 1
+                return float(held[start[b] + k - before[b]])
+
+            for e in range(angle_bins + 1):
+                a, b = order_statistic(int(ranks[0, e])), order_statistic(int(ranks[1, e]))
+                t = weight[e]
+                edges[r, e, j] = a + (b - a) * t if t < 0.5 else b - (b - a) * (1 - t)
+    return edges
+
+
 def summarise_gap(
     joint_names: tuple[str, ...],
     residual: np.ndarray,
@@ -111,50 +282,9 @@ def summarise_gap(
     qd: np.ndarray,
     qdd: np.ndarray,
     rate_hz: float,
-    *,
-    still_rad_s: float = 0.02,
-    reversal_window_s: float = 0.05,
-    speed_edges_rad_s: tuple[float, ...] = (0.1, 0.3, 0.7),
-    acceleration_edges_rad_s2: tuple[float, ...] = (0.5, 2.0, 5.0),
-    angle_bins: int = 4,
-    systematic_cutoff_hz: float = 2.0,
+    options: GapOptions = GapOptions(),
 ) -> GapSummary:
-    """Statistics of residual (N, 7) N·m at states q, qd, qdd (N, 7) sampled at rate_hz."""
-    residual = np.asarray(residual, dtype=float)
-    n = len(residual)
-    if n < 16:
-        raise ValueError(f"need at least 16 samples to summarise a residual, got {n}")
-    everywhere = np.ones_like(residual, dtype=bool)
-    _, rms, mean = _masked_stats(residual, everywhere)
-    share = rms**2 / max(float(np.sum(rms**2)), 1e-300)
-
-    systematic = zero_phase_lowpass(residual, rate_hz, systematic_cutoff_hz)
-    noise_rms = np.sqrt(np.mean((residual - systematic) ** 2, axis=0))
-    systematic_rms = np.sqrt(np.mean(systematic**2, axis=0))
-
-    bands: list[Band] = []
-    speed = np.abs(qd)
-    bands.append(_band("still", f"|qd| < {still_rad_s:g} rad/s", residual, speed < still_rad_s))
-    window = max(1, int(round(reversal_window_s * rate_hz)))
-    bands.append(
-        _band("reversal", f"within {reversal_window_s:g} s of a reversal", residual, _reversal_mask(qd, still_rad_s, window))
-    )
-    for regime, values, edges, unit in (
-        ("speed", speed, speed_edges_rad_s, "rad/s"),
-        ("acceleration", np.abs(qdd), acceleration_edges_rad_s2, "rad/s²"),
-    ):
-        bounds = (0.0, *edges, np.inf)
-        for lo, hi in zip(bounds[:-1], bounds[1:]):
-            label = f"{lo:g}–{hi:g} {unit}" if np.isfinite(hi) else f"≥ {lo:g} {unit}"
-            bands.append(_band(regime, label, residual, (values >= lo) & (values < hi)))
-    quantiles = np.linspace(0.0, 1.0, angle_bins + 1)
-    for regime, angle in (("angle", q), ("angle_s1", np.repeat(q[:, S1 : S1 + 1], q.shape[1], axis=1))):
-        edges = np.quantile(angle, quantiles, axis=0)  # (bins + 1, 7)
-        for b in range(angle_bins):
-            lo, hi = edges[b], edges[b + 1]
-            inside = (angle >= lo) & ((angle < hi) if b < angle_bins - 1 else (angle <= hi))
-            label = f"bin {b + 1}/{angle_bins}" + (
-                f" q_s1 {lo[S1]:+.2f}…{hi[S1]:+.2f} rad" if regime == "angle_s1" else " of the joint's range"
-            )
-            bands.append(_band(regime, label, residual, inside))
-    return GapSummary(tuple(joint_names), rms, mean, share, systematic_rms, noise_rms, tuple(bands))
+    """Statistics of one residual (N, 7) N·m at states q, qd, qdd (N, 7) sampled at rate_hz."""
+    quantiles = np.linspace(0.0, 1.0, options.angle_bins + 1)
+    edges = np.stack([np.quantile(angle, quantiles, axis=0) for _, angle in _angles(np.asarray(q, dtype=float))])
+    return gap_summary(joint_names, gap_sums(residual, q, qd, qdd, rate_hz, edges, options))

@@ -33,10 +33,10 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from functools import partial
 
 import numpy as np
 
-from ..core.acceleration import zero_phase_acceleration
 from ..core.arm_model import ArmModel, pseudo_inertia
 from ..core.effects import (
     EFFECTS,
@@ -53,24 +53,14 @@ from ..core.effects import (
 )
 from ..core.joints import JOINTS as N
 from ..core.log_cholesky import pseudo_from_log_cholesky
-from ..core.recording import MIN_FIT_S, Recording, require_length
+from ..core.recording import MIN_FIT_S, Recording, require_total_span
 from ..errors import DiagnosisError, RecordingError
 from .fit import Fit, Fitter, Model, Term
-from .gap_analysis import GapSummary, summarise_gap
+from .gap_analysis import GapSummary, gap_summary, quantile_edges, wanted_bins
+from .passes import Reduction, Screening, TestFigures, reduce, screen, test_figures
 from .selection import FAMILY_OF, MIN_JOINT_GAIN, MIN_JOINT_GAIN_NM, Evaluation, select
-from .statistics import (
-    Block,
-    Candidate,
-    ColumnLayout,
-    Pool,
-    active_columns,
-    choose_cutoff,
-    column_layout,
-    default_groups,
-    prepare,
-    recording_blocks,
-    regressor,
-)
+from .sources import InMemory, Mapper, Source, serial_map
+from .statistics import Candidate, ColumnLayout, Pool, active_columns, choose_cutoff, column_layout, default_groups
 
 __all__ = ["CANDIDATE_NAMES", "STABLE_FRACTION", "DiagnosisResult", "EffectReport", "diagnose"]
 
@@ -82,6 +72,8 @@ BLOCKS_PER_RECORDING = 4
 STABLE_FRACTION = 0.75
 #: A joint's held-out RMS that changes by less than this fraction counts as unchanged.
 VERDICT_TOLERANCE = 0.01
+#: The report's residual series keep at most this many test samples (every k-th).
+MAX_SERIES_POINTS = 20000
 
 
 @dataclass(frozen=True)
@@ -246,40 +238,6 @@ class DiagnosisResult:
 
 
 # ----------------------------------------------------------------------------- helpers
-#: The effort must follow the rigid-body torque at one joint at least this well (correlation):
-#: on the real recordings the best joint reaches 0.99 in every file, pure noise stays below 0.1.
-MIN_MODEL_CORRELATION = 0.5
-
-
-def _check(arm: ArmModel, train: Sequence[tuple[str, Recording]], test: Sequence[tuple[str, Recording]]) -> None:
-    """Refuse what the method cannot diagnose: recordings of another arm, shorter than it needs
-    (:func:`require_length`), with a joint whose effort never changes, or whose effort follows the
-    rigid-body torque at no joint (not this arm's torque, not in N·m, or noise)."""
-    for label, rec in (*train, *test):
-        if rec.side != arm.side:
-            raise DiagnosisError(f"{label}: a {rec.side}-arm recording, but the model is of the {arm.side} arm")
-    try:
-        require_length(train, "training", MIN_FIT_S)
-        require_length(test, "test")
-    except RecordingError as err:
-        raise DiagnosisError(str(err)) from err
-    for label, rec in (*train, *test):
-        flat = [n for n, span in zip(arm.joint_names, np.ptp(rec.effort, axis=0)) if span == 0.0]
-        if flat:
-            raise DiagnosisError(
-                f"{label}: the effort of {', '.join(flat)} is the same in every sample: "
-                "a torque sensor that does not respond; the diagnosis needs every joint's effort"
-            )
-        tau = arm.inverse_dynamics(rec.q, rec.qd, zero_phase_acceleration(rec.qd, rec.rate_hz, min(4.0, 0.4 * rec.rate_hz)))
-        moving = np.ptp(tau, axis=0) > 0.0
-        corr = [abs(float(np.corrcoef(rec.effort[:, j], tau[:, j])[0, 1])) for j in np.flatnonzero(moving)]
-        if not corr or max(corr) < MIN_MODEL_CORRELATION:
-            raise DiagnosisError(
-                f"{label}: the effort follows the rigid-body torque at no joint (largest correlation "
-                f"{max(corr, default=0.0):.2f}, at least {MIN_MODEL_CORRELATION:g} expected): is it this arm's joint torque, in N·m?"
-            )
-
-
 def _short(names: Sequence[str]) -> str:
     return ", ".join(n.split("_", 1)[-1] for n in names)
 
@@ -394,48 +352,65 @@ class _Context:
 
 def diagnose(
     arm: ArmModel,
-    train: Sequence[tuple[str, Recording]],
-    test: Sequence[tuple[str, Recording]],
+    train: Sequence[Source | tuple[str, Recording]],
+    test: Sequence[Source | tuple[str, Recording]],
     *,
     progress: Callable[[int, int], None] | None = None,
+    mapper: Mapper = serial_map,
+    max_series_points: int = MAX_SERIES_POINTS,
 ) -> DiagnosisResult:
     """Diagnose the gap of ``arm``'s rigid model on recordings: fit on ``train``, measure on ``test``.
 
-    train, test: (label, Recording) pairs of the arm's side, each at least
+    train, test: sources (:class:`~baxter_dynamics_ros.diagnosis.sources.Source`, each read when a
+    pass needs it and let go) or (label, Recording) pairs, of the arm's side, each at least
     :data:`~baxter_dynamics_ros.core.recording.MIN_RECORDING_SAMPLES` samples and ``MIN_RECORDING_S``
     long, the training ones ``MIN_FIT_S`` together. Cross-validation leaves one training recording out; with a
-    single one, one of its four contiguous blocks.
+    single one, one of its four contiguous blocks. mapper: runs each pass's per-file work
+    (:mod:`~baxter_dynamics_ros.diagnosis.passes`; serial by default); its results are added in the
+    sources' order, so that any mapper gives the same result. max_series_points: the report's
+    residual series keep every k-th test sample, k the least that keeps at most this many.
     """
     tick = progress or (lambda _done, _total: None)
     if not train or not test:
         raise DiagnosisError("need at least one training and one test recording")
-    _check(arm, train, test)
+    train_sources, test_sources = _as_sources(train), _as_sources(test)
+    sources = [*train_sources, *test_sources]
+    kinds = ["training"] * len(train_sources) + ["test"] * len(test_sources)
+    steps = [0, 6]
+
+    def step() -> None:
+        steps[0] += 1
+        tick(*steps)
+
+    screened = mapper(partial(_screen_one, arm), list(zip(kinds, sources)))
+    train_screens, test_screens = screened[: len(train_sources)], screened[len(train_sources) :]
+    try:
+        require_total_span([s.span_s for s in train_screens], "training", MIN_FIT_S)
+    except RecordingError as err:
+        raise DiagnosisError(str(err)) from err
     layout = column_layout()
     active = active_columns(arm, layout)
-    cutoff = choose_cutoff(arm, [r for _, r in train])
-    steps = [0, len(train) + len(test) + 3]
+    cutoff = choose_cutoff([s.scores for s in train_screens])
+    histogram = sum(s.histogram for s in test_screens)
+    wanted = wanted_bins(histogram)
+    step()
 
-    def blocks_of(items, parts: int) -> list[Block]:
-        out = []
-        for label, rec in items:
-            out += recording_blocks(arm, layout, active, label, prepare(arm, rec, cutoff), parts)
-            steps[0] += 1
-            tick(*steps)
-        return out
-
-    train_blocks = blocks_of(train, BLOCKS_PER_RECORDING)
+    jobs = [(BLOCKS_PER_RECORDING, None, s) for s in train_sources] + [(1, wanted, s) for s in test_sources]
+    reductions = mapper(partial(_reduce_one, arm, layout, active, cutoff), jobs)
+    train_blocks = [b for r in reductions[: len(train_sources)] for b in r.blocks]
+    test_reductions = reductions[len(train_sources) :]
     pool = Pool(train_blocks, default_groups(train_blocks))
-    test_blocks = blocks_of(test, 1)
+    test_blocks = [b for r in test_reductions for b in r.blocks]
     test_pool = Pool(test_blocks, [list(range(len(test_blocks)))])
+    edges = quantile_edges(histogram, wanted, [r.angle_values for r in test_reductions])
+    step()
 
     selection = select(arm, layout, pool)
-    steps[0] += 1
-    tick(*steps)
+    step()
     final = selection.model
     ctx = _Context(arm, layout, pool, test_pool, selection.fitter)
     fold_models = [select(arm, layout, pool.sub_pool(g)).model for g in range(len(pool.groups))]
-    steps[0] += 1
-    tick(*steps)
+    step()
 
     reports = _selected_reports(ctx, selection.evaluation, fold_models)
     reports.append(_noise_report(ctx, cutoff))
@@ -443,17 +418,34 @@ def diagnose(
     reports = _cumulative(ctx, final, reports)
     ordered = sorted(reports, key=lambda e: (not e.selected, -(e.share if e.selected else e.cv_gain)))
     ranked = tuple(replace(e, rank=i + 1) for i, e in enumerate(ordered))
+    step()
 
     n_train, n_test = pool.samples, test_pool.samples
     final_rms = ctx.test_rms(final)
-    gap, gap_filtered, series = _test_gap(ctx, test, cutoff, final)
+    stride = max(1, -(-n_test // max_series_points))
+    figures = mapper(
+        partial(test_figures, arm, layout, cutoff, ctx.fitter.columns(final), ctx.fitter.fit(final).x, edges, stride), test_sources
+    )
+    gap, gap_filtered, series = _test_gap(arm, figures)
     tick(steps[1], steps[1])
     holdout = "leave one training recording out" if len(train) > 1 else f"{BLOCKS_PER_RECORDING} contiguous blocks of the training recording, one left out at a time"
     return DiagnosisResult(
-        arm.side, tuple(arm.joint_names), tuple(l for l, _ in train), tuple(l for l, _ in test), holdout, len(pool.groups), cutoff,
+        arm.side, tuple(arm.joint_names), tuple(s.label for s in train_sources), tuple(s.label for s in test_sources), holdout, len(pool.groups), cutoff,
         _rms(pool.rr_raw, n_train), _rms(test_pool.rr_raw, n_test), _rms(test_pool.rr, n_test), final_rms,
         ranked, gap, gap_filtered, selection.moves, series,
     )  # fmt: skip
+
+
+def _as_sources(items: Sequence[Source | tuple[str, Recording]]) -> list[Source]:
+    return [InMemory(*item) if isinstance(item, tuple) else item for item in items]
+
+
+def _screen_one(arm: ArmModel, job: tuple[str, Source]) -> Screening:
+    return screen(arm, *job)
+
+
+def _reduce_one(arm: ArmModel, layout: ColumnLayout, active: list[np.ndarray], cutoff: float, job: tuple[int, np.ndarray | None, Source]) -> Reduction:
+    return reduce(arm, layout, active, cutoff, *job)
 
 
 def _term_values(ctx: _Context, model: Model, fit: Fit, term: Term) -> tuple[np.ndarray, np.ndarray]:
@@ -732,29 +724,13 @@ def _cumulative(ctx: _Context, final: Model, reports: list[EffectReport]) -> lis
     return [updated.get(r.name, r) if r.selected else r for r in reports]
 
 
-def _test_gap(ctx: _Context, test: Sequence[tuple[str, Recording]], cutoff: float, final: Model):
-    """Gap summaries of the test data and the residual series before/after the selected effects."""
-    fit = ctx.fitter.fit(final)
-    cols = ctx.fitter.columns(final)
-    raws, filts, finals, times, states = [], [], [], [], []
-    offset = 0.0
-    for _, rec in test:
-        p = prepare(ctx.arm, rec, cutoff)
-        explained = np.zeros_like(rec.q)
-        if len(cols):
-            for a in range(0, len(rec), 8192):
-                b = min(len(rec), a + 8192)
-                explained[a:b] = regressor(ctx.arm, ctx.layout, p, a, b)[:, :, cols] @ fit.x
-        raws.append(p.residual_raw)
-        filts.append(p.residual)
-        finals.append(p.residual - explained)
-        times.append(p.stamps_s + offset)
-        offset = times[-1][-1] + 1.0 / rec.rate_hz
-        states.append((rec.q, rec.qd, zero_phase_acceleration(rec.qd, rec.rate_hz, min(5.0, 0.4 * rec.rate_hz))))
-    cat = np.concatenate
-    q, qd, qdd = (cat([s[k] for s in states]) for k in range(3))
-    rate = test[0][1].rate_hz
-    gap = summarise_gap(ctx.arm.joint_names, cat(raws), q, qd, qdd, rate)
-    gap_filtered = summarise_gap(ctx.arm.joint_names, cat(filts), q, qd, qdd, rate)
-    series = {"t_s": cat(times), "baseline": cat(raws), "filtered": cat(filts), "final": cat(finals), "q": q}
-    return gap, gap_filtered, series
+def _test_gap(arm: ArmModel, figures: Sequence[TestFigures]) -> tuple[GapSummary, GapSummary, dict[str, np.ndarray]]:
+    """Gap summaries of the test data (raw and denoised q̈) and the residual series before/after the
+    selected effects, the test recordings one after the other, from each one's figures in order."""
+    raw, filtered = figures[0].raw, figures[0].filtered
+    for f in figures[1:]:
+        raw, filtered = raw + f.raw, filtered + f.filtered
+    offsets = np.concatenate([[0.0], np.cumsum([f.end_s for f in figures[:-1]])])
+    series = {k: np.concatenate([f.series[k] for f in figures]) for k in ("baseline", "filtered", "final")}
+    series["t_s"] = np.concatenate([f.series["t_s"] + offset for f, offset in zip(figures, offsets)])
+    return gap_summary(arm.joint_names, raw), gap_summary(arm.joint_names, filtered), series

@@ -44,6 +44,7 @@ __all__ = [
     "Prepared",
     "choose_cutoff",
     "column_layout",
+    "cutoff_scores",
     "prepare",
     "recording_blocks",
 ]
@@ -219,23 +220,36 @@ def recording_blocks(
     return out
 
 
-def choose_cutoff(arm: ArmModel, train: Sequence[Recording]) -> float:
-    """The cut-off whose denoised rigid residual is smallest on the training data (no fit involved).
+def cutoff_scores(arm: ArmModel, rec: Recording) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
+    """One training recording's part of the cut-off choice: (raw, sse) with raw (7,) the squared
+    rigid residual per joint with the first difference of q̇, and sse one (7,) per cut-off of
+    :data:`CUTOFF_GRID_HZ` below 0.45 · its rate, with q̇ low-passed there (no fit involved)."""
+    raw = np.sum((rec.effort - arm.inverse_dynamics(rec.q, rec.qd, first_difference(rec.qd, rec.stamps_s))) ** 2, axis=0)
+    sse = []
+    for cutoff in CUTOFF_GRID_HZ:
+        if cutoff >= 0.45 * rec.rate_hz:
+            break
+        qdd = zero_phase_acceleration(rec.qd, rec.rate_hz, cutoff)
+        sse.append(np.sum((rec.effort - arm.inverse_dynamics(rec.q, rec.qd, qdd)) ** 2, axis=0))
+    return raw, tuple(sse)
+
+
+def choose_cutoff(scores: Sequence[tuple[np.ndarray, tuple[np.ndarray, ...]]]) -> float:
+    """The cut-off whose denoised rigid residual is smallest on the training data, from each training
+    recording's :func:`cutoff_scores` (added in the recordings' order); only cut-offs below 0.45 ·
+    every recording's rate are tried.
 
     Each joint's squared error counts relative to its raw-world one, so that the joint with the
     largest unmodelled torque (s1, with Baxter's spring) does not decide the filter for all.
     """
     raw = np.zeros(N)
-    for rec in train:
-        raw += np.sum((rec.effort - arm.inverse_dynamics(rec.q, rec.qd, first_difference(rec.qd, rec.stamps_s))) ** 2, axis=0)
+    for r, _ in scores:
+        raw += r
     best, best_score = CUTOFF_GRID_HZ[0], np.inf
-    for cutoff in CUTOFF_GRID_HZ:
-        if any(cutoff >= 0.45 * rec.rate_hz for rec in train):
-            break
+    for k, cutoff in enumerate(CUTOFF_GRID_HZ[: min(len(s) for _, s in scores)]):
         sse = np.zeros(N)
-        for rec in train:
-            qdd = zero_phase_acceleration(rec.qd, rec.rate_hz, cutoff)
-            sse += np.sum((rec.effort - arm.inverse_dynamics(rec.q, rec.qd, qdd)) ** 2, axis=0)
+        for _, s in scores:
+            sse += s[k]
         score = float(np.sum(sse / np.maximum(raw, 1e-300)))
         if score < best_score:
             best, best_score = cutoff, score

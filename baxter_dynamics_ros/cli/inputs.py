@@ -1,0 +1,63 @@
+"""The commands' input arguments as recordings: files, ROS 2 bag folders, folders of them, globs.
+
+One expansion for ``process``, ``diagnose`` and ``calibrate``: a file stays itself; a ROS 2 bag
+folder (it holds ``metadata.yaml``) is one recording; any other folder stands for the recordings
+directly in it (bag files, bag folders and tables, by name; not its subfolders' contents: a folder
+of folders of bags would mix unrelated sessions by accident); a pattern with ``*``, ``?`` or ``[``
+that the shell left unexpanded (quoted) is expanded here, sorted, each match as above. A folder or
+pattern that yields no recording is refused (RecordingFileError); a path that does not exist is
+left for :func:`~baxter_dynamics_ros.cli.paths.check_paths` to refuse.
+"""
+
+from __future__ import annotations
+
+import glob
+from collections.abc import Sequence
+from pathlib import Path
+
+from ..errors import RecordingFileError
+
+__all__ = ["expand_inputs"]
+
+_PATTERN_CHARACTERS = frozenset("*?[")
+
+
+def expand_inputs(paths: Sequence[Path]) -> list[Path]:
+    """The recordings that ``paths`` stand for, in the given order (each folder's and pattern's sorted)."""
+    out: list[Path] = []
+    for path in paths:
+        if path.exists() or not _PATTERN_CHARACTERS & set(str(path)):
+            out += _recordings_at(path, quiet=False)
+            continue
+        found = [r for match in sorted(glob.glob(str(path))) for r in _recordings_at(Path(match), quiet=True)]
+        if not found:
+            raise RecordingFileError(f"{path}: no recording matches this pattern ({_kinds()})")
+        out += found
+    return out
+
+
+def _suffixes() -> tuple[str, ...]:
+    from msg_adapters.recording_files import BAG_SUFFIXES, TABLE_SUFFIXES
+
+    return (*BAG_SUFFIXES, *TABLE_SUFFIXES)
+
+
+def _kinds() -> str:
+    from msg_adapters.recording_files import BAG_SUFFIXES, TABLE_SUFFIXES
+
+    return f"bags {', '.join(BAG_SUFFIXES)}, ROS 2 bag folders, tables {', '.join(TABLE_SUFFIXES)}"
+
+
+def _recordings_at(path: Path, *, quiet: bool) -> list[Path]:
+    """path itself, or for a folder that is no bag the recordings in it. quiet (a pattern's match):
+    [] for a file of another kind or a folder without recordings, instead of path or an error."""
+    from msg_adapters.recording_files import is_bag_folder
+
+    if is_bag_folder(path) or (path.is_file() and (not quiet or path.suffix in _suffixes())):
+        return [path]
+    if not path.is_dir():
+        return [] if quiet else [path]
+    found = sorted(p for p in path.iterdir() if (p.is_file() and p.suffix in _suffixes()) or is_bag_folder(p))
+    if not found and not quiet:
+        raise RecordingFileError(f"{path}: a folder with no recording in it ({_kinds()}); give files, bag folders or a folder of them")
+    return found

@@ -1,0 +1,124 @@
+"""Where the per-file work runs: in this process, in worker processes, or on a dask cluster.
+
+:func:`file_mapper` gives a :data:`~baxter_dynamics_ros.diagnosis.sources.Mapper` for the
+commands' ``--jobs N`` and ``--scheduler ADDRESS`` options. Every mapper returns the results in the
+items' order, whatever order they finish in, so that the sums made of them are the same in every
+way of running. Worker processes start by ``forkserver`` (numba's and OpenMP's threads do not
+survive a fork of a process that runs them); ``--scheduler local`` starts a one-machine dask
+cluster on 127.0.0.1 without a dashboard and closes it at the end, also on error. A worker's
+error (a corrupt file) comes back as the error it raised; a worker that dies, or a scheduler that
+cannot be reached, is a :class:`~baxter_dynamics_ros.errors.WorkerError`. No worker imports rclpy.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import Future
+from contextlib import ExitStack, contextmanager
+from functools import partial
+from typing import Any
+
+from ..diagnosis.sources import Mapper, serial_map
+from ..errors import WorkerError
+
+__all__ = ["add_worker_arguments", "default_jobs", "file_mapper"]
+
+#: Modules the forkserver imports once, so that each worker starts with them loaded.
+PRELOAD = ["numpy", "baxter_dynamics_ros.diagnosis.passes", "baxter_dynamics_ros.cli.recording_sources"]
+
+
+def default_jobs() -> int:
+    """The cores this process may run on."""
+    count = getattr(os, "process_cpu_count", None)
+    return count() if count is not None else len(os.sched_getaffinity(0))
+
+
+def _positive(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def add_worker_arguments(parser: argparse.ArgumentParser, cluster: bool = True) -> None:
+    """``--jobs``, and ``--scheduler`` if cluster."""
+    parser.add_argument(
+        "--jobs", "-j", type=_positive, default=None, metavar="N",
+        help="worker processes for the per-file work (default: every core; 1: in this process; with --scheduler local: its workers)",
+    )  # fmt: skip
+    if not cluster:
+        return
+    parser.add_argument(
+        "--scheduler", metavar="ADDRESS",
+        help="run the per-file work on a dask.distributed cluster at ADDRESS (e.g. tcp://host:8786; the files must be at the same "
+        "paths on its workers: a shared filesystem), or 'local' for a cluster of --jobs worker processes on this machine (127.0.0.1, no dashboard)",
+    )  # fmt: skip
+
+
+@contextmanager
+def file_mapper(jobs: int | None, scheduler: str | None) -> Iterator[Mapper]:
+    """The mapper for ``--jobs`` (None: every core) and ``--scheduler``; whatever it started is stopped on leaving."""
+    jobs = default_jobs() if jobs is None else jobs
+    if scheduler is not None:
+        with _dask_client(scheduler, jobs) as client:
+            yield partial(_dask_map, client)
+    elif jobs == 1:
+        yield serial_map
+    else:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        context = multiprocessing.get_context("forkserver")
+        context.set_forkserver_preload(PRELOAD)
+        executor = ProcessPoolExecutor(max_workers=jobs, mp_context=context)
+        try:
+            yield partial(_pool_map, executor)
+        finally:
+            executor.shutdown(wait=True, cancel_futures=True)
+
+
+def _pool_map(executor, function: Callable[[Any], Any], items: Sequence[Any]) -> list:
+    from concurrent.futures.process import BrokenProcessPool
+
+    futures: list[Future] = [executor.submit(function, item) for item in items]
+    try:
+        return [f.result() for f in futures]
+    except BrokenProcessPool as err:
+        raise WorkerError(f"a worker process died ({err}); run with --jobs 1 to see which file it was reading") from err
+    finally:
+        for f in futures:
+            f.cancel()
+
+
+@contextmanager
+def _dask_client(address: str, jobs: int) -> Iterator[Any]:
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError as err:
+        raise WorkerError(f"--scheduler needs dask.distributed ({err}); install the package's 'cluster' extra") from err
+    with ExitStack() as stack:
+        try:
+            if address == "local":
+                cluster = stack.enter_context(
+                    LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None)
+                )
+                client = stack.enter_context(Client(cluster))
+            else:
+                client = stack.enter_context(Client(address, timeout=10))
+        except (OSError, TimeoutError) as err:
+            raise WorkerError(f"cannot reach the dask scheduler at {address}: {err}") from err
+        yield client
+
+
+def _dask_map(client, function: Callable[[Any], Any], items: Sequence[Any]) -> list:
+    from distributed.scheduler import KilledWorker
+
+    futures = client.map(function, items, pure=False)
+    try:
+        return client.gather(futures)
+    except KilledWorker as err:
+        raise WorkerError(f"a dask worker died while working on a file ({err})") from err
+    finally:
+        client.cancel(futures)
