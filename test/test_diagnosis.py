@@ -178,7 +178,7 @@ def test_drifting_offsets_are_reported_as_drift() -> None:
 
 def test_drift_at_a_joint_other_than_s0_is_found() -> None:
     """Offsets of 0.3, 0.6 and 0.9 N·m at e1 in three recordings: recovered per recording, said to drift."""
-    from baxter_dynamics_ros.diagnosis_validation import simulated_recordings, validation_arm
+    from baxter_dynamics_ros.diagnosis.validation import simulated_recordings, validation_arm
 
     per = tuple({"torque_offset": {"offset_nm": [0, 0, 0, e1, 0, 0, 0]}} for e1 in (0.3, 0.6, 0.9, 0.6, 0.6))
     scenario = Scenario("e1 offsets", {}, per_recording=per)
@@ -195,9 +195,9 @@ def test_drift_at_a_joint_other_than_s0_is_found() -> None:
 def test_effort_that_is_not_this_arms_torque_is_refused() -> None:
     """A recording whose effort is noise, or with a joint whose effort never changes, cannot be
     diagnosed: refused, naming the recording (and the joint)."""
-    from baxter_dynamics_ros.diagnosis_validation import simulated_recordings, validation_arm
+    from baxter_dynamics_ros.diagnosis.validation import simulated_recordings, validation_arm
     from baxter_dynamics_ros.errors import DiagnosisError
-    from baxter_dynamics_ros.recording import Recording
+    from baxter_dynamics_ros.core.recording import Recording
 
     train = simulated_recordings(Scenario("rigid", {}), TRAIN_RUNS, ())
     test = simulated_recordings(Scenario("rigid", {}), TEST_RUNS, ())
