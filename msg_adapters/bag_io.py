@@ -91,15 +91,14 @@ def _read_topics(path: Path, topics: Sequence[str] | None, progress: Progress | 
             deserialize = reader.typestore.deserialize_ros1 if ros1 else reader.typestore.deserialize_cdr
             decoders = {topic: _decoder(path, deserialize, msgtype) for topic, msgtype in msgtypes.items()}
             pending: dict[str, list[bytes]] = {topic: [] for topic in msgtypes}
-            decoded = {topic: 0 for topic in msgtypes}
             blocks: dict[str, list[JointStateBlock]] = {topic: [] for topic in msgtypes}
             log_times: dict[str, list[int]] = {topic: [] for topic in msgtypes}
 
             def flush(topic: str) -> None:
                 raws = pending[topic]
+                first = len(log_times[topic]) - len(raws)  # position of raws[0] among the topic's messages
                 for block in decode_joint_states(raws, msgtypes[topic], ros1, decoders[topic]):
-                    blocks[topic].append(replace(block, index=block.index + decoded[topic]))
-                decoded[topic] += len(raws)
+                    blocks[topic].append(replace(block, index=block.index + first))
                 pending[topic] = []
 
             for done, (connection, log_time_ns, raw) in enumerate(reader.messages(connections=connections), 1):

@@ -27,6 +27,7 @@ from recorded_bags import (
 from baxter_dynamics_ros.core.joints import arm_joint_names
 from baxter_dynamics_ros.core.recording import Recording, detect_arm
 from baxter_dynamics_ros.errors import OutputError, RecordingError, RecordingFileError
+from msg_adapters import bag_io
 from msg_adapters.bag_io import read_bag_recording, read_joint_state_messages
 from msg_adapters.csv_io import read_table_recording
 from msg_adapters.mcap_writer import write_mcap
@@ -79,9 +80,15 @@ def test_sea_joint_state_type_is_registered_from_its_definition_text() -> None:
         assert fields[:2] == ["header", "name"] and fields[4:7] == ["commanded_effort", "actual_position", "actual_velocity"]
 
 
+@pytest.mark.parametrize("decode_every", [None, 5])
 @pytest.mark.parametrize("kind", ["ros1", "mcap"])
-def test_messages_of_other_layouts_and_without_the_arm_are_handled_by_name(tmp_path: Path, kind: str) -> None:
-    """Shuffled names, other frame_ids, gripper-only messages: matched by name, skipped if incomplete."""
+def test_messages_of_other_layouts_and_without_the_arm_are_handled_by_name(
+    tmp_path: Path, kind: str, decode_every: int | None, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Shuffled names, other frame_ids, gripper-only messages: matched by name, skipped if incomplete;
+    the same when the reader decodes the messages a few at a time (every piece holding several layouts)."""
+    if decode_every is not None:
+        monkeypatch.setattr(bag_io, "DECODE_EVERY", decode_every)
     states = joint_states(N)
     rng = np.random.default_rng(1)
     msgs, kept = [], []
