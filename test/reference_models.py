@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
+import pytest
 
 from baxter_dynamics_ros import ArmModel
 from baxter_dynamics_ros.core import pinocchio_model
@@ -26,6 +27,12 @@ from repo_paths import SHARED
 
 N = 7
 URDF_PATH = SHARED / "reference" / "baxter.urdf"
+
+
+def require_urdf() -> None:
+    """Skip the calling test when Rethink's URDF is not beside the checkout (../shared/reference)."""
+    if not URDF_PATH.is_file():
+        pytest.skip(f"Baxter's URDF is not at {URDF_PATH} (../shared/reference beside the checkout)")
 
 # Q of eq. (11): ∂/∂θ of a rotation about z, as a 4×4 operator.
 Q_REVOLUTE = np.zeros((4, 4))
@@ -149,6 +156,7 @@ GRAVITY_M_S2 = (0.0, 0.0, -9.81)  # in DH frame 0: the arm mount turns about the
 
 def urdf_joint_origins(side: str) -> dict[str, np.ndarray]:
     """{joint suffix: origin xyz (3,) m} of the side's joints (and ``hand``), read from the URDF's text."""
+    require_urdf()
     root = ET.parse(URDF_PATH).getroot()
     out = {}
     for joint in root.findall("joint"):
@@ -207,6 +215,7 @@ def pinocchio_from_urdf(arm: ArmModel) -> PinocchioArm:
     the other joints at zero velocity and acceleration the arm's torques are the same.)
     DH frame 0 is the ``<side>_arm_mount`` frame translated by the ``<side>_s0`` joint's origin.
     """
+    require_urdf()
     model = pin.buildModelFromUrdf(str(URDF_PATH))
     idx = np.array([model.joints[model.getJointId(name)].idx_q for name in arm.joint_names])
     data = model.createData()
