@@ -43,9 +43,10 @@ setup(
         "rosbags>=0.11.9",
         "matplotlib>=3.11.2",
         "pyarrow>=26.0.1",
+        "threadpoolctl>=3.8.0",
     ],
     extras_require={
-        "pypi": ros_wheels + ["numpy", "numba", "pyyaml", "pin", "cmeel-eigen", "rosbags", "scipy", "matplotlib", "pyarrow", "dask[distributed]==2026.8.0"],
+        "pypi": ros_wheels + ["numpy", "numba", "pyyaml", "pin", "cmeel-eigen", "rosbags", "scipy", "matplotlib", "pyarrow", "threadpoolctl", "dask[distributed]==2026.8.0"],
         "test": ["pytest", "hypothesis", "colcon-common-extensions", "mcap", "dask[distributed]==2026.8.0"],
         "cluster": ["dask[distributed]==2026.8.0"],
     },

@@ -7,17 +7,19 @@ that nothing new was written).
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
+
 from repo_paths import REPO
 
 
-
-def run_cli(*args: str | Path, timeout_s: float = 600.0) -> subprocess.CompletedProcess:
-    """``python -m baxter_dynamics_ros.cli ARGS...`` in the checkout; output captured as text."""
+def run_cli(*args: str | Path, timeout_s: float = 600.0, env: dict[str, str] | None = None) -> subprocess.CompletedProcess:
+    """``python -m baxter_dynamics_ros.cli ARGS...`` in the checkout, with ``env`` added to this
+    process' environment; output captured as text."""
     command = [sys.executable, "-m", "baxter_dynamics_ros.cli", *map(str, args)]
-    return subprocess.run(command, cwd=REPO, capture_output=True, text=True, timeout=timeout_s)
+    return subprocess.run(command, cwd=REPO, capture_output=True, text=True, timeout=timeout_s, env={**os.environ, **(env or {})})
 
 
 def the_error(result: subprocess.CompletedProcess) -> str:

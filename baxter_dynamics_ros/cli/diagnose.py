@@ -19,13 +19,20 @@ from __future__ import annotations
 
 import argparse
 import sys
+import tempfile
 from collections.abc import Hashable
+from contextlib import ExitStack
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..errors import DiagnosisError
 from .inputs import expand_inputs
 from .paths import check_paths
 from .workers import add_worker_arguments, file_mapper
+
+if TYPE_CHECKING:
+    from ..diagnosis.procedure import DiagnosisResult
+    from ..diagnosis.sources import Mapper
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -46,12 +53,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Diagnose and write the outputs; returns 0 (errors raise BaxterDynamicsError)."""
-    from ..core.arm_model import load_arm_model
     from ..core.output_files import check_outputs
-    from ..diagnosis.procedure import diagnose
     from ..diagnosis.report import OUTPUT_FILES, write_diagnosis
-    from .progress import ProgressBar
-    from .recording_sources import RecordingFile, inspect
 
     outputs = [args.out / name for name in OUTPUT_FILES]
     given = (("--train", expand_inputs(args.train)), ("--test", expand_inputs(args.test)))
@@ -60,35 +63,51 @@ def run(args: argparse.Namespace) -> int:
     _refuse_repeats([(option, str(p), _file_id(p)) for option, paths in given for p in paths], "is the same file as")
     show = sys.stderr.isatty() if args.progress is None else args.progress
 
-    def source(path: Path) -> RecordingFile:
-        return RecordingFile(str(path), str(path), args.topic, args.arm, args.rate_hz)
-
-    train, test = ([source(p) for p in paths] for _, paths in given)
-    with file_mapper(args.jobs, args.scheduler) as mapper:
-        seen = mapper(inspect, [*train, *test])
-        for info in seen:
-            for note in info.notes:
-                print(note, file=sys.stderr)
-        sides = {info.side for info in seen}
-        if len(sides) > 1:
-            raise DiagnosisError("the recordings are of different arms; pass --arm right|left")
-        options = ["--train"] * len(train) + ["--test"] * len(test)
-        _refuse_repeats([(o, s.label, info.digest) for o, s, info in zip(options, [*train, *test], seen)], "holds the same samples as")
-        if not test:
-            if len(train) > 1:
-                test = [train.pop()]
-            else:
-                train, test = _split_last_quarter(train[0], seen[0].samples, seen[0].span_s)
-        arm = load_arm_model(args.model if args.model is not None else sides.pop())
-        bar = ProgressBar("diagnosis", show)
-        try:
-            result = diagnose(arm, train, test, progress=bar, mapper=mapper)
-        finally:
-            bar.close()
+    with ExitStack() as stack:
+        # Decoded once, loaded by the later passes; a remote cluster's workers cannot see this folder.
+        scratch = None if args.scheduler not in (None, "local") else stack.enter_context(tempfile.TemporaryDirectory(prefix="baxter-dynamics-"))
+        mapper = stack.enter_context(file_mapper(args.jobs, args.scheduler))
+        result = _diagnose(args, given, show, mapper, scratch)
     paths = write_diagnosis(result, args.out)
     print(_summary(result))
     print(f"report: {paths['report.html']}")
     return 0
+
+
+def _diagnose(
+    args: argparse.Namespace, given: tuple[tuple[str, list[Path]], ...], show: bool, mapper: Mapper, scratch: str | None
+) -> DiagnosisResult:
+    """The diagnosis of the given (option, paths) pairs with the command's options; the files'
+    decoded arms kept in the folder scratch for the later passes (None: decoded at every pass)."""
+    from ..core.arm_model import load_arm_model
+    from ..diagnosis.procedure import diagnose
+    from .progress import ProgressBar
+    from .recording_sources import RecordingFile, inspect
+
+    def source(path: Path) -> RecordingFile:
+        return RecordingFile(str(path), str(path), args.topic, args.arm, args.rate_hz, scratch=scratch)
+
+    train, test = ([source(p) for p in paths] for _, paths in given)
+    seen = mapper(inspect, [*train, *test])
+    for info in seen:
+        for note in info.notes:
+            print(note, file=sys.stderr)
+    sides = {info.side for info in seen}
+    if len(sides) > 1:
+        raise DiagnosisError("the recordings are of different arms; pass --arm right|left")
+    options = ["--train"] * len(train) + ["--test"] * len(test)
+    _refuse_repeats([(o, s.label, info.digest) for o, s, info in zip(options, [*train, *test], seen)], "holds the same samples as")
+    if not test:
+        if len(train) > 1:
+            test = [train.pop()]
+        else:
+            train, test = _split_last_quarter(train[0], seen[0].samples, seen[0].span_s)
+    arm = load_arm_model(args.model if args.model is not None else sides.pop())
+    bar = ProgressBar("diagnosis", show)
+    try:
+        return diagnose(arm, train, test, progress=bar, mapper=mapper)
+    finally:
+        bar.close()
 
 
 def _refuse_repeats(items: list[tuple[str, str, Hashable]], same: str) -> None:

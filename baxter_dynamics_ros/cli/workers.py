@@ -3,9 +3,12 @@
 :func:`file_mapper` gives a :data:`~baxter_dynamics_ros.diagnosis.sources.Mapper` for the
 commands' ``--jobs N`` and ``--scheduler ADDRESS`` options. Every mapper returns the results in the
 items' order, whatever order they finish in, so that the sums made of them are the same in every
-way of running. Worker processes start by ``forkserver`` (numba's and OpenMP's threads do not
-survive a fork of a process that runs them); ``--scheduler local`` starts a one-machine dask
-cluster on 127.0.0.1 without a dashboard and closes it at the end, also on error. A worker's
+way of running. Worker processes are spawned (numba's and OpenMP's threads do not survive a fork
+of a process that runs them, and a fork server would be one more process holding the imports), run
+their numba kernels and BLAS on one thread each (:func:`one_thread`: the processes already share
+the cores; more threads only contend) and hand their freed heap back after each task.
+``--scheduler local`` starts a one-machine dask cluster on 127.0.0.1 without a dashboard, its
+workers on one thread each too, and closes it at the end, also on error. A worker's
 error (a corrupt file) comes back as the error it raised; a worker that dies, or a scheduler that
 cannot be reached, is a :class:`~baxter_dynamics_ros.errors.WorkerError`. No worker imports rclpy.
 """
@@ -13,6 +16,7 @@ cannot be reached, is a :class:`~baxter_dynamics_ros.errors.WorkerError`. No wor
 from __future__ import annotations
 
 import argparse
+import ctypes
 import os
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future
@@ -23,16 +27,21 @@ from typing import Any
 from ..diagnosis.sources import Mapper, serial_map
 from ..errors import WorkerError
 
-__all__ = ["add_worker_arguments", "default_jobs", "file_mapper"]
-
-#: Modules the forkserver imports once, so that each worker starts with them loaded.
-PRELOAD = ["numpy", "baxter_dynamics_ros.diagnosis.passes", "baxter_dynamics_ros.cli.recording_sources"]
-
+__all__ = ["add_worker_arguments", "default_jobs", "file_mapper", "one_thread"]
 
 def default_jobs() -> int:
     """The cores this process may run on."""
     count = getattr(os, "process_cpu_count", None)
     return count() if count is not None else len(os.sched_getaffinity(0))
+
+
+def one_thread() -> None:
+    """Run this process' numba parallel kernels and BLAS calls on one thread (a worker's setup)."""
+    import numba
+    from threadpoolctl import threadpool_limits
+
+    numba.set_num_threads(1)
+    threadpool_limits(1)
 
 
 def _positive(text: str) -> int:
@@ -70,9 +79,8 @@ def file_mapper(jobs: int | None, scheduler: str | None) -> Iterator[Mapper]:
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
 
-        context = multiprocessing.get_context("forkserver")
-        context.set_forkserver_preload(PRELOAD)
-        executor = ProcessPoolExecutor(max_workers=jobs, mp_context=context)
+        context = multiprocessing.get_context("spawn")
+        executor = ProcessPoolExecutor(max_workers=jobs, mp_context=context, initializer=one_thread)
         try:
             yield partial(_pool_map, executor)
         finally:
@@ -82,7 +90,7 @@ def file_mapper(jobs: int | None, scheduler: str | None) -> Iterator[Mapper]:
 def _pool_map(executor, function: Callable[[Any], Any], items: Sequence[Any]) -> list:
     from concurrent.futures.process import BrokenProcessPool
 
-    futures: list[Future] = [executor.submit(function, item) for item in items]
+    futures: list[Future] = [executor.submit(_trimmed, function, item) for item in items]
     try:
         return [f.result() for f in futures]
     except BrokenProcessPool as err:
@@ -90,6 +98,18 @@ def _pool_map(executor, function: Callable[[Any], Any], items: Sequence[Any]) ->
     finally:
         for f in futures:
             f.cancel()
+
+
+def _trimmed(function: Callable[[Any], Any], item: Any) -> Any:
+    """function(item), then the freed heap handed back to the system (glibc's ``malloc_trim``): a
+    worker that has reduced an hour-long file would otherwise keep its peak for the rest of the run."""
+    try:
+        return function(item)
+    finally:
+        try:
+            ctypes.CDLL(None).malloc_trim(0)
+        except (OSError, AttributeError):  # not glibc
+            pass
 
 
 @contextmanager
@@ -105,6 +125,7 @@ def _dask_client(address: str, jobs: int) -> Iterator[Any]:
                     LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None)
                 )
                 client = stack.enter_context(Client(cluster))
+                client.run(one_thread)
             else:
                 client = stack.enter_context(Client(address, timeout=10))
         except (OSError, TimeoutError) as err:

@@ -150,36 +150,54 @@ def gap_sums(
     """The sums of one recording's residual (N, 7) N·m at states q, qd, qdd (N, 7) sampled at rate_hz.
 
     angle_edges: (2, angle_bins + 1, 7) the edges of the ``angle`` and ``angle_s1`` bins
-    (:func:`quantile_edges`)."""
-    o = options
+    (:func:`quantile_edges`). Joint by joint: the temporaries of an hour-long recording are (N,)."""
     residual = np.asarray(residual, dtype=float)
     if len(residual) < 16:
         raise ValueError(f"need at least 16 samples to summarise a residual, got {len(residual)}")
-    systematic = zero_phase_lowpass(residual, rate_hz, o.systematic_cutoff_hz)
-    bands: list[tuple[str, str, np.ndarray]] = []
+    joints = [_joint_sums(residual[:, j], q[:, j], q[:, S1], qd[:, j], qdd[:, j], rate_hz, angle_edges[:, :, j], angle_edges[:, :, S1], options) for j in range(residual.shape[1])]
+    labels = joints[0][0]
+    totals, count, band_r, band_r2 = (np.stack([joint[k] for joint in joints], axis=-1) for k in range(1, 5))
+    return GapSums(len(residual), *totals, labels, count, band_r, band_r2)
+
+
+def _joint_sums(
+    r: np.ndarray, q: np.ndarray, q_s1: np.ndarray, qd: np.ndarray, qdd: np.ndarray, rate_hz: float, edges: np.ndarray, edges_s1: np.ndarray, o: GapOptions
+) -> tuple[tuple[tuple[str, str], ...], np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """One joint's part of :func:`gap_sums` from its (N,) columns: the labels, (4,) Σ r, Σ r², the
+    systematic part's and the rest's Σ², and per band its count, Σ r and Σ r²; edges (2, bins + 1) of
+    its angle bins, edges_s1 those of s1 (the ``angle_s1`` bins' labels)."""
+    systematic = zero_phase_lowpass(r, rate_hz, o.systematic_cutoff_hz)
+    squared = r**2
+    totals = np.array([r.sum(), squared.sum(), (systematic**2).sum(), ((r - systematic) ** 2).sum()])
+    del systematic
+    labels: list[tuple[str, str]] = []
+    count, band_r, band_r2 = [], [], []
+
+    def band(regime: str, label: str, mask: np.ndarray) -> None:
+        labels.append((regime, label))
+        count.append(np.count_nonzero(mask))
+        band_r.append(r[mask].sum())
+        band_r2.append(squared[mask].sum())
+
     speed = np.abs(qd)
-    bands.append(("still", f"|qd| < {o.still_rad_s:g} rad/s", speed < o.still_rad_s))
+    band("still", f"|qd| < {o.still_rad_s:g} rad/s", speed < o.still_rad_s)
     window = max(1, int(round(o.reversal_window_s * rate_hz)))
-    bands.append(("reversal", f"within {o.reversal_window_s:g} s of a reversal", _reversal_mask(qd, o.still_rad_s, window)))
-    for regime, values, edges, unit in (
+    band("reversal", f"within {o.reversal_window_s:g} s of a reversal", _reversal_mask(qd[:, None], o.still_rad_s, window)[:, 0])
+    for regime, values, bin_edges, unit in (
         ("speed", speed, o.speed_edges_rad_s, "rad/s"),
         ("acceleration", np.abs(qdd), o.acceleration_edges_rad_s2, "rad/s²"),
     ):
-        bounds = (0.0, *edges, np.inf)
+        bounds = (0.0, *bin_edges, np.inf)
         for lo, hi in zip(bounds[:-1], bounds[1:]):
             label = f"{lo:g}–{hi:g} {unit}" if np.isfinite(hi) else f"≥ {lo:g} {unit}"
-            bands.append((regime, label, (values >= lo) & (values < hi)))
-    for (regime, angle), edges in zip(_angles(q), angle_edges):
+            band(regime, label, (values >= lo) & (values < hi))
+    for (regime, angle), angle_edges, s1_edges in zip((("angle", q), ("angle_s1", q_s1)), edges, edges_s1):
         for b in range(o.angle_bins):
-            lo, hi = edges[b], edges[b + 1]
+            lo, hi = angle_edges[b], angle_edges[b + 1]
             inside = (angle >= lo) & ((angle < hi) if b < o.angle_bins - 1 else (angle <= hi))
-            label = f"bin {b + 1}/{o.angle_bins}" + (f" q_s1 {lo[S1]:+.2f}…{hi[S1]:+.2f} rad" if regime == "angle_s1" else " of the joint's range")
-            bands.append((regime, label, inside))
-    masks = np.stack([m for _, _, m in bands])
-    return GapSums(
-        len(residual), residual.sum(axis=0), (residual**2).sum(axis=0), (systematic**2).sum(axis=0), ((residual - systematic) ** 2).sum(axis=0),
-        tuple((r, l) for r, l, _ in bands), masks.sum(axis=1), np.where(masks, residual, 0.0).sum(axis=1), np.where(masks, residual**2, 0.0).sum(axis=1),
-    )  # fmt: skip
+            label = f"bin {b + 1}/{o.angle_bins}" + (f" q_s1 {s1_edges[b]:+.2f}…{s1_edges[b + 1]:+.2f} rad" if regime == "angle_s1" else " of the joint's range")
+            band(regime, label, inside)
+    return tuple(labels), totals, np.array(count), np.array(band_r), np.array(band_r2)
 
 
 def gap_summary(joint_names: tuple[str, ...], sums: GapSums) -> GapSummary:

@@ -25,7 +25,7 @@ from ..core.recording import Recording, require_length
 from ..errors import DiagnosisError, RecordingError
 from .gap_analysis import GapSums, angle_histogram, gap_sums, values_in_bins
 from .sources import Source
-from .statistics import CHUNK, Block, ColumnLayout, cutoff_scores, prepare, recording_blocks, regressor
+from .statistics import CHUNK, Block, ColumnLayout, cutoff_scores, explained, prepare, recording_blocks
 
 __all__ = ["Reduction", "Screening", "TestFigures", "check_recording", "reduce", "screen", "test_figures"]
 
@@ -128,14 +128,14 @@ def test_figures(
     layout and their values x), summed for the gap summary with the bins' angle_edges."""
     rec = source.read()
     p = prepare(arm, rec, cutoff_hz)
-    explained = np.zeros_like(rec.q)
+    effects = np.zeros_like(rec.q)
     if len(columns):
         for a in range(0, len(rec), CHUNK):
             b = min(len(rec), a + CHUNK)
-            explained[a:b] = regressor(arm, layout, p, a, b)[:, :, columns] @ x
+            effects[a:b] = explained(arm, layout, p, columns, x, a, b)
     qdd = zero_phase_acceleration(rec.qd, rec.rate_hz, min(5.0, 0.4 * rec.rate_hz))
     raw = gap_sums(p.residual_raw, rec.q, rec.qd, qdd, rec.rate_hz, angle_edges)
     filtered = gap_sums(p.residual, rec.q, rec.qd, qdd, rec.rate_hz, angle_edges)
     pick = slice(None, None, stride)
-    series = {"t_s": p.stamps_s[pick], "baseline": p.residual_raw[pick], "filtered": p.residual[pick], "final": (p.residual - explained)[pick]}
+    series = {"t_s": p.stamps_s[pick], "baseline": p.residual_raw[pick], "filtered": p.residual[pick], "final": (p.residual - effects)[pick]}
     return TestFigures(raw, filtered, series, float(p.stamps_s[-1] + 1.0 / rec.rate_hz))

@@ -60,7 +60,7 @@ from .gap_analysis import GapSummary, gap_summary, quantile_edges, wanted_bins
 from .passes import Reduction, Screening, TestFigures, reduce, screen, test_figures
 from .selection import FAMILY_OF, MIN_JOINT_GAIN, MIN_JOINT_GAIN_NM, Evaluation, select
 from .sources import InMemory, Mapper, Source, serial_map
-from .statistics import Candidate, ColumnLayout, Pool, active_columns, choose_cutoff, column_layout, default_groups
+from .statistics import Block, Candidate, ColumnLayout, Pool, active_columns, choose_cutoff, column_layout
 
 __all__ = ["CANDIDATE_NAMES", "STABLE_FRACTION", "DiagnosisResult", "EffectReport", "diagnose"]
 
@@ -366,7 +366,7 @@ def diagnose(
     :data:`~baxter_dynamics_ros.core.recording.MIN_RECORDING_SAMPLES` samples and ``MIN_RECORDING_S``
     long, the training ones ``MIN_FIT_S`` together. Cross-validation leaves one training recording out; with a
     single one, one of its four contiguous blocks. mapper: runs each pass's per-file work
-    (:mod:`~baxter_dynamics_ros.diagnosis.passes`; serial by default); its results are added in the
+    (:mod:`~baxter_dynamics_ros.diagnosis.passes`) and the folds' selections (serial by default); its results are added in the
     sources' order, so that any mapper gives the same result. max_series_points: the report's
     residual series keep every k-th test sample, k the least that keeps at most this many.
     """
@@ -399,7 +399,7 @@ def diagnose(
     reductions = mapper(partial(_reduce_one, arm, layout, active, cutoff), jobs)
     train_blocks = [b for r in reductions[: len(train_sources)] for b in r.blocks]
     test_reductions = reductions[len(train_sources) :]
-    pool = Pool(train_blocks, default_groups(train_blocks))
+    pool = Pool.of(train_blocks)
     test_blocks = [b for r in test_reductions for b in r.blocks]
     test_pool = Pool(test_blocks, [list(range(len(test_blocks)))])
     edges = quantile_edges(histogram, wanted, [r.angle_values for r in test_reductions])
@@ -409,7 +409,7 @@ def diagnose(
     step()
     final = selection.model
     ctx = _Context(arm, layout, pool, test_pool, selection.fitter)
-    fold_models = [select(arm, layout, pool.sub_pool(g)).model for g in range(len(pool.groups))]
+    fold_models = mapper(partial(_fold_model, arm, layout), pool.fold_blocks())
     step()
 
     reports = _selected_reports(ctx, selection.evaluation, fold_models)
@@ -438,6 +438,11 @@ def diagnose(
 
 def _as_sources(items: Sequence[Source | tuple[str, Recording]]) -> list[Source]:
     return [InMemory(*item) if isinstance(item, tuple) else item for item in items]
+
+
+def _fold_model(arm: ArmModel, layout: ColumnLayout, blocks: list[Block]) -> Model:
+    """The model the selection picks on a cross-validation fold's training blocks."""
+    return select(arm, layout, Pool.of(blocks)).model
 
 
 def _screen_one(arm: ArmModel, job: tuple[str, Source]) -> Screening:

@@ -45,6 +45,8 @@ __all__ = [
     "choose_cutoff",
     "column_layout",
     "cutoff_scores",
+    "explained",
+    "joint_regressors",
     "prepare",
     "recording_blocks",
 ]
@@ -149,23 +151,56 @@ def prepare(arm: ArmModel, rec: Recording, cutoff_hz: float) -> Prepared:
     """The arrays of ``rec`` with q̇ low-passed at cutoff_hz before differentiating."""
     stamps = rec.stamps_s
     qdd = zero_phase_acceleration(rec.qd, rec.rate_hz, cutoff_hz)
-    raw = first_difference(rec.qd, stamps)
     tau = arm.inverse_dynamics(rec.q, rec.qd, qdd)
-    return Prepared(
-        rec.q, rec.qd, qdd, rec.effort - tau, rec.effort - arm.inverse_dynamics(rec.q, rec.qd, raw), -np.gradient(tau, stamps, axis=0), stamps
-    )
+    residual = rec.effort - tau
+    delay_columns = np.gradient(tau, stamps, axis=0)
+    np.negative(delay_columns, out=delay_columns)
+    del tau  # one (N, 7) temporary at a time: an hour-long recording's are 20 MB each
+    residual_raw = rec.effort - arm.inverse_dynamics(rec.q, rec.qd, first_difference(rec.qd, stamps))
+    return Prepared(rec.q, rec.qd, qdd, residual, residual_raw, delay_columns, stamps)
+
+
+def _block_regressor(arm: ArmModel, template: Effect, width: int, p: Prepared, lo: int, hi: int) -> np.ndarray:
+    """(hi − lo, 7, width) one column block of the layout on samples lo:hi (denoised world)."""
+    if isinstance(template, Delay):
+        out = np.zeros((hi - lo, N, width))
+        idx = np.arange(N)
+        out[:, idx, idx] = p.delay_columns[lo:hi]
+        return out
+    return template.regressor(arm, p.q[lo:hi], p.qd[lo:hi], p.qdd[lo:hi])
 
 
 def regressor(arm: ArmModel, layout: ColumnLayout, p: Prepared, lo: int, hi: int) -> np.ndarray:
     """(hi − lo, 7, P) every distinct column on samples lo:hi (denoised world)."""
-    q, qd, qdd = p.q[lo:hi], p.qd[lo:hi], p.qdd[lo:hi]
     out = np.zeros((hi - lo, N, layout.n_columns))
-    idx = np.arange(N)
     for template, start, width in layout.blocks:
-        if isinstance(template, Delay):
-            out[:, idx, start + idx] = p.delay_columns[lo:hi]
-        else:
-            out[:, :, start : start + width] = template.regressor(arm, q, qd, qdd)
+        out[:, :, start : start + width] = _block_regressor(arm, template, width, p, lo, hi)
+    return out
+
+
+def joint_regressors(arm: ArmModel, layout: ColumnLayout, active: list[np.ndarray], p: Prepared, lo: int, hi: int) -> list[np.ndarray]:
+    """Per joint j, (hi − lo, len(active[j])) its active columns on samples lo:hi: the rows of
+    :func:`regressor` at joint j, without the columns that are zero there (the statistics pass)."""
+    out = [np.empty((hi - lo, len(columns))) for columns in active]
+    for template, start, width in layout.blocks:
+        phi = _block_regressor(arm, template, width, p, lo, hi)
+        for j, columns in enumerate(active):
+            a, b = np.searchsorted(columns, (start, start + width))
+            if b > a:
+                out[j][:, a:b] = phi[:, j, columns[a:b] - start]
+    return out
+
+
+def explained(arm: ArmModel, layout: ColumnLayout, p: Prepared, columns: np.ndarray, x: np.ndarray, lo: int, hi: int) -> np.ndarray:
+    """(hi − lo, 7) N·m, the effects of parameters x at the layout's distinct ``columns`` on samples
+    lo:hi: ``regressor(...)[:, :, columns] @ x``, evaluating only the column blocks that hold them."""
+    order = np.argsort(columns, kind="stable")
+    columns, x = columns[order], x[order]
+    out = np.zeros((hi - lo, N))
+    for template, start, width in layout.blocks:
+        a, b = np.searchsorted(columns, (start, start + width))
+        if b > a:
+            out += _block_regressor(arm, template, width, p, lo, hi)[:, :, columns[a:b] - start] @ x[a:b]
     return out
 
 
@@ -206,11 +241,9 @@ def recording_blocks(
         b = np.zeros((N, P))
         for start in range(lo, hi, CHUNK):
             stop = min(hi, start + CHUNK)
-            phi = regressor(arm, layout, p, start, stop)
             r = p.residual[start:stop]
-            for j in range(N):
+            for j, x in enumerate(joint_regressors(arm, layout, active, p, start, stop)):
                 idx = active[j]
-                x = phi[:, j, idx]
                 H[j][np.ix_(idx, idx)] += x.T @ x
                 b[j, idx] += x.T @ r[:, j]
         rr = np.sum(p.residual[lo:hi] ** 2, axis=0)
@@ -283,7 +316,7 @@ class Pool:
         self.rr_raw = sum(self.group_rr_raw)
         self.samples = sum(self.group_samples)
         self.duration_s = sum(b.duration_s for b in self.blocks)
-        self._recording_sums: dict[int, list] = {}
+        self._recording_sums: dict[tuple[str, int | None], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
     @property
     def recordings(self) -> tuple[str, ...]:
@@ -296,25 +329,41 @@ class Pool:
 
     def recording_sums(self, g: int | None) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
         """(H, b, rr) of each recording (``recordings_without(g)`` order) over its blocks outside group g."""
-        key = -1 if g is None else g
-        if key not in self._recording_sums:
-            out = set() if g is None else set(self.groups[g])
-            sums = []
-            for name in self.recordings_without(g):
-                idx = [i for i, b in enumerate(self.blocks) if b.recording == name and i not in out]
-                sums.append(tuple(sum(getattr(self.blocks[i], a) for i in idx) for a in ("H", "b", "rr")))
-            self._recording_sums[key] = sums
-        return self._recording_sums[key]
+        out = set() if g is None else set(self.groups[g])
+        sums = []
+        for name in self.recordings_without(g):
+            own = [i for i, b in enumerate(self.blocks) if b.recording == name]
+            idx = [i for i in own if i not in out]
+            key = (name, None if len(idx) == len(own) else g)  # untouched by group g: its whole sums, made once
+            if key not in self._recording_sums:
+                self._recording_sums[key] = tuple(sum(getattr(self.blocks[i], a) for i in idx) for a in ("H", "b", "rr"))
+            sums.append(self._recording_sums[key])
+        return sums
 
     def without_group(self, g: int) -> tuple[np.ndarray, np.ndarray, int]:
         """(H, b, samples) of every group but g."""
         return self.H - self.group_H[g], self.b - self.group_b[g], self.samples - self.group_samples[g]
 
-    def sub_pool(self, g: int) -> Pool:
-        """The pool of every group but g, grouped by recording (by block if one recording is left)."""
-        keep = [i for k, grp in enumerate(self.groups) if k != g for i in grp]
-        blocks = [self.blocks[i] for i in keep]
-        return Pool(blocks, default_groups(blocks))
+    def fold_blocks(self) -> list[list[Block]]:
+        """Per group g, the training data of the fold without it, for ``Pool.of``: the blocks of
+        every other group, each recording's summed into one when two recordings or more remain (that
+        pool groups by recording, and only the groups' and recordings' sums enter it: the same sums,
+        a quarter of the size to send to a worker; the sums are made once and shared by the folds)."""
+        merged: dict[str, Block] = {}
+        for name in self.recordings:
+            own = [b for b in self.blocks if b.recording == name]
+            merged[name] = Block(name, 0, *(sum(getattr(b, a) for b in own) for a in ("samples", "duration_s", "H", "b", "rr", "rr_raw")))
+        folds = []
+        for g in range(len(self.groups)):
+            blocks = [self.blocks[i] for k, grp in enumerate(self.groups) if k != g for i in grp]
+            names = list(dict.fromkeys(b.recording for b in blocks))
+            folds.append([merged[name] for name in names] if len(names) > 1 else blocks)
+        return folds
+
+    @classmethod
+    def of(cls, blocks: Sequence[Block]) -> Pool:
+        """Blocks grouped by recording (by block if they are of one recording): :func:`default_groups`."""
+        return cls(blocks, default_groups(blocks))
 
 
 def default_groups(blocks: Sequence[Block]) -> list[list[int]]:
