@@ -52,7 +52,7 @@ OTHERS = {
     "simulation": {"numpy", "numba", "scipy", "yaml"},
     "diagnosis": {"numpy", "numba", "scipy", "yaml", "matplotlib"},
     "ros": {"numpy", "yaml"} | ROS_MESSAGES,
-    "msg_adapters": {"numpy", "rosbags", "pyarrow"} | ROS_MESSAGES,
+    "msg_adapters": {"numpy", "numba", "rosbags", "pyarrow"} | ROS_MESSAGES,  # numba: the live reader of CDR bytes
 }
 #: What importing a module of these layers must not load.
 FORBIDDEN_AT_IMPORT = ("rclpy", "msg_adapters", *ROS_MESSAGES)
@@ -137,4 +137,5 @@ def test_importing_msg_adapters_loads_only_the_core_records(module: str) -> None
     ours = [m for m in loaded if m.startswith("baxter_dynamics_ros.")]
     bad = [m for m in ours if m != "baxter_dynamics_ros.errors" and not any(m == ok or m.startswith(ok + ".") for ok in OWN["msg_adapters"]) and m != "baxter_dynamics_ros.core"]
     assert not bad, f"import {module} loaded {bad}"
-    assert "numba" not in loaded, f"import {module} loaded numba (through {ours})"
+    if module != "msg_adapters.joint_state":  # the live node's reader compiles its one call per message
+        assert "numba" not in loaded, f"import {module} loaded numba (through {ours})"

@@ -29,7 +29,8 @@ cores by default; ``numba.set_num_threads`` or ``NUMBA_NUM_THREADS`` to change),
 and single samples stay on the calling thread. The batch kernels (``batch_*``,
 :func:`cholesky_solve`) are public too, for per-sample loops (the live node, the simulator's
 integrator) that cannot afford the fronts' checks: they take C-contiguous float64 (M, 7) arrays,
-write into preallocated outputs, check nothing, and run on the calling thread.
+write into preallocated outputs, check nothing, and run on the calling thread. A loop over single
+samples keeps a workspace (:func:`sample_workspace`) for :func:`sample_torques` instead.
 """
 
 from __future__ import annotations
@@ -62,6 +63,8 @@ __all__ = [
     "jacobian",
     "mass_matrix",
     "momentum_terms",
+    "sample_torques",
+    "sample_workspace",
 ]
 
 LANES = 16
@@ -592,6 +595,41 @@ def batch_gravity(dh, J, g, q, out):
 def batch_mass_matrix(dh, J, q, out):
     """out (M, 7, 7) = M(q) of every row."""
     _mass_matrix_rows(_dh_constants(dh), _inertia_constants(J), q, out, 0, q.shape[0])
+
+
+# ----------------------------------------------------------------------------- one sample, with a workspace
+# A per-sample loop (the live node) keeps the model's constants and a block scratch between calls,
+# as Pinocchio keeps a Data beside its Model: no allocation, no trigonometry of the DH table, and a
+# scratch that stays in the cache, where a batch kernel would allocate and fill a fresh one per call.
+def sample_workspace(dh: np.ndarray, J: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(K, P, B) for :func:`sample_torques`: the constants of the model (dh (7, 4), J (7, 4, 4)) and a
+    block scratch. The kernels never write the scratch's constant entries, so it serves every call."""
+    dh, J = np.ascontiguousarray(dh, dtype=np.float64), np.ascontiguousarray(J, dtype=np.float64)
+    return _dh_constants(dh), _inertia_constants(J), _new_scratch()
+
+
+@njit(cache=True)
+def _new_scratch() -> np.ndarray:
+    return _block_scratch()
+
+
+@njit(cache=True, fastmath=_CONTRACT)
+def sample_torques(K, P, B, g, q, qd, qdd, out) -> None:
+    """out[0] = τ(q, q̇, q̈) and out[1] = G(q) = τ(q, 0, 0) of one sample, q, qd, qdd (7,), out (≥2, 7):
+    lanes 0 and 1 of the workspace (K, P, B) of :func:`sample_workspace`; the numbers of
+    :func:`batch_inverse_dynamics` on the rows (q, q̇, q̈) and (q, 0, 0)."""
+    for i in range(N):
+        B[_at(i, _Q)] = q[i]
+        B[_at(i, _Q) + 1] = q[i]
+        B[_at(i, _QD)] = qd[i]
+        B[_at(i, _QD) + 1] = 0.0
+        B[_at(i, _QDD)] = qdd[i]
+        B[_at(i, _QDD) + 1] = 0.0
+    _frames(K, B, 2)
+    _rne_block(P, g, True, B, 2)
+    for i in range(N):
+        out[0, i] = B[_at(i, _OUT)]
+        out[1, i] = B[_at(i, _OUT) + 1]
 
 
 def inertial_basis() -> np.ndarray:

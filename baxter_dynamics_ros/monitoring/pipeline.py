@@ -116,9 +116,21 @@ def _input_fault(q: np.ndarray, qd: np.ndarray, effort: np.ndarray, bounds: np.n
 
 
 @njit(cache=True)
-def _all_finite(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray) -> bool:
-    """Whether none of the arrays (any shape; :data:`_ABSENT` for none) holds NaN or ±inf."""
-    return _finite(a) and _finite(b) and _finite(c) and _finite(d)
+def _model_torques(K, P, B, g, q, qd, qdd, effort, extra, out) -> bool:
+    """out (3, 7): τ(q, q̇, q̈) + extra, G(q) and, with effort, the residual effort − τ (row 2
+    untouched without); effort and extra (7,) or :data:`_ABSENT`; (K, P, B) the workspace of
+    :func:`~baxter_dynamics_ros.core.lagrange_euler.sample_workspace`. False if q̈ or a result
+    holds NaN or ±inf. One compiled call, as the node asks it of every sample."""
+    lagrange_euler.sample_torques(K, P, B, g, q, qd, qdd, out)
+    if extra.size:
+        for j in range(out.shape[1]):
+            out[0, j] += extra[j]
+    if effort.size:
+        for j in range(out.shape[1]):
+            out[2, j] = effort[j] - out[0, j]
+        if not _finite(out[2]):
+            return False
+    return _finite(qdd) and _finite(out[0]) and _finite(out[1])
 
 
 def _given(x: np.ndarray | None) -> np.ndarray:
@@ -156,10 +168,8 @@ class ResidualPipeline:
             [self.arm.lower_rad - POSITION_MARGIN_RAD, self.arm.upper_rad + POSITION_MARGIN_RAD, -qd_max, qd_max, -effort_max, effort_max],
             dtype=np.float64,
         )
-        # One batch of two rows for the compiled core: row 0 gives τ(q, q̇, q̈), row 1 G(q) = τ(q, 0, 0).
-        self._q2 = np.zeros((2, N))
-        self._qd2 = np.zeros((2, N))
-        self._qdd2 = np.zeros((2, N))
+        self._workspace = lagrange_euler.sample_workspace(self.arm.dh, self.arm.pseudo_inertias)
+        self._gravity = np.ascontiguousarray(self.arm.gravity_m_s2, dtype=np.float64)
         self._warm_up()
 
     def _warm_up(self) -> None:
@@ -183,13 +193,6 @@ class ResidualPipeline:
         self._last_stamp_ns = None
         self._last_q = None
         self._estimated_ns = None
-
-    def _dynamics(self) -> np.ndarray:
-        """(2, 7): τ of the batch rows set in _q2, _qd2, _qdd2 (the compiled kernel: no per-call checks)."""
-        out = np.empty((2, N))
-        arm = self.arm
-        lagrange_euler.batch_inverse_dynamics(arm.dh, arm.pseudo_inertias, arm.gravity_m_s2, self._q2, self._qd2, self._qdd2, True, out)
-        return out
 
     def process(self, sample: ArmSample, observe: bool = True) -> ModelTorques | SkipReason:
         """The model's torques for one sample, or why it was skipped.
@@ -219,25 +222,20 @@ class ResidualPipeline:
         dt_s = 0.0 if self._estimated_ns is None else (stamp_ns - self._estimated_ns) * 1e-9
         self._estimated_ns = stamp_ns
         qdd = self._estimator.update(qd, dt_s)
-        self._q2[0] = q
-        self._q2[1] = q
-        self._qd2[0] = qd
-        self._qdd2[0] = qdd
-        tau_and_gravity = self._dynamics()
-        if self.compensation is not None:
-            tau_and_gravity[0] += self.compensation.torque(q, qd, qdd)
-        residual = external_torque = None
-        if effort is not None:
-            residual = effort - tau_and_gravity[0]
+        extra = _ABSENT if self.compensation is None else self.compensation.torque(q, qd, qdd)
+        torques = np.empty((3, N))  # τ, G, residual
+        if not _model_torques(*self._workspace, self._gravity, q, qd, qdd, _given(effort), extra, torques):
+            self.reset()
+            return SkipReason.NON_FINITE_MODEL
+        external_torque = None
         if effort is not None and observe:
             external_torque = self._observer.update(q, qd, effort, dt_s)
             self._observing = True
+            if not _finite(external_torque):
+                self.reset()
+                return SkipReason.NON_FINITE_MODEL
         elif self._observing:  # restart it when it is next needed
             self._observer.reset()
             self._observing = False
-        if not _all_finite(tau_and_gravity, qdd, _given(residual), _given(external_torque)):
-            self.reset()
-            return SkipReason.NON_FINITE_MODEL
-        return ModelTorques(
-            stamp_ns, q, qd, qdd, tau_and_gravity[1], tau_and_gravity[0], residual, qd_from_positions, external_torque, effort
-        )
+        residual = None if effort is None else torques[2]
+        return ModelTorques(stamp_ns, q, qd, qdd, torques[1], torques[0], residual, qd_from_positions, external_torque, effort)

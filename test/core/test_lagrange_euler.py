@@ -376,3 +376,27 @@ def test_a_bad_sample_stays_in_its_lane() -> None:
     assert np.isnan(tau[[3, 4, 5]]).any(axis=1).all()
     assert np.isnan(grav[[3, 4]]).any(axis=1).all() and np.isnan(mass[[3, 4]]).any(axis=(1, 2)).all()
     assert np.isfinite(grav[5]).all() and np.isfinite(mass[5]).all()  # q̇ plays no part in G and M
+
+
+def test_one_workspace_serves_every_sample_with_the_batch_kernels_bits() -> None:
+    """sample_torques over 300 samples with one workspace, a NaN and an inf sample among them: each
+    sample's τ and G are the bits of the batch kernel on (q, q̇, q̈) and (q, 0, 0), and Pinocchio's
+    to 1e-12; nothing of a sample (the non-finite ones included) stays in the scratch for the next."""
+    arm = load_arm_model("left")
+    q, qd, qdd = random_states(arm, 300, seed=11, qdd_max_rad_s2=10.0)
+    q[40, 3], qd[41, 5], qdd[42, 0] = np.nan, np.inf, np.nan
+    K, P, B = lagrange_euler.sample_workspace(arm.dh, arm.pseudo_inertias)
+    got = np.empty((len(q), 2, 7))
+    for k in range(len(q)):
+        lagrange_euler.sample_torques(K, P, B, arm.gravity_m_s2, q[k], qd[k], qdd[k], got[k])
+    batch_tau, batch_grav = np.empty_like(q), np.empty_like(q)
+    lagrange_euler.batch_inverse_dynamics(arm.dh, arm.pseudo_inertias, arm.gravity_m_s2, q, qd, qdd, True, batch_tau)
+    zero = np.zeros_like(q)
+    lagrange_euler.batch_inverse_dynamics(arm.dh, arm.pseudo_inertias, arm.gravity_m_s2, q, zero, zero, True, batch_grav)
+    np.testing.assert_array_equal(got[:, 0], batch_tau)
+    np.testing.assert_array_equal(got[:, 1], batch_grav)
+    finite = [k for k in range(len(q)) if k not in (40, 41, 42)]
+    tau, grav, _ = _pinocchio_answers(paper_reference(arm.side), q[finite], qd[finite], qdd[finite])
+    assert_close(got[finite, 0], tau, "tau, one sample at a time", rtol=1e-12)
+    assert_close(got[finite, 1], grav, "G, one sample at a time", rtol=1e-12)
+    assert not np.isfinite(got[40:43, 0]).all(axis=1).any()

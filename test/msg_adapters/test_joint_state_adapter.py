@@ -67,6 +67,12 @@ def test_reader_maps_any_order_by_name(names, sec: int, nanosec: int) -> None:
     assert sample.stamp_ns == sec * 1_000_000_000 + nanosec
 
 
+@pytest.mark.parametrize("stamp_ns", [-1_500_000_000, -(2**31) * 1_000_000_000, (2**31 - 1) * 1_000_000_000 + 999_999_999])
+def test_reader_reads_stamps_over_the_whole_int32_range(stamp_ns: int) -> None:
+    sample = JointStateReader(ARM.joint_names).read(cdr(JOINTS, stamp_ns))
+    assert sample.stamp_ns == stamp_ns
+
+
 def test_reader_reads_big_endian_cdr_from_another_serializer() -> None:
     store = typestore(ros1=False)
     types = store.types
