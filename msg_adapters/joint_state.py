@@ -8,10 +8,11 @@ all of the dynamics, so the bytes are read and written here directly, with the b
 Input (:class:`JointStateReader`): any superset of the arm's joints in any order (a real Baxter
 sends both arms, the head and the grippers, alphabetically), mapped by name. A publisher's
 messages all share one layout (names, array lengths, frame_id); it is parsed when it changes, and
-the name → index map rebuilt only when the names change. Each message is checked against the
-layout and its stamp and the arm's values read in one compiled call, :func:`_read_sample` (the
-node's time per sample is mostly the cost of each step starting with cold caches, so fewer steps). ``position`` must have one entry per
+the name → index map rebuilt only when the names change. ``position`` must have one entry per
 name; ``velocity`` and ``effort`` one per name or none (the sample then has no q̇ / no effort).
+Each message is checked against the layout, and its stamp and the arm's values read, in one
+compiled call (:func:`_read_sample`): live, each step of the node costs several µs as it starts on
+cold caches, so fewer steps cost less.
 
 Output (:class:`ArmJointStateWriter`): CDR bytes of JointState messages with the arm's 7 joint
 names, the input's header stamp (frame_id empty: joint-space torques have no frame), position and
