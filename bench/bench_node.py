@@ -93,11 +93,12 @@ def echo() -> int:
 def floor() -> int:
     """The floor peer: the node's transport path and nothing else.
 
-    Joint states (on FLOOR_IN, so that the node does not take them too) are taken as CDR bytes on the node's input QoS by the node's own
-    :class:`~baxter_dynamics_ros.ros.node.SubscriptionThread`, and each is answered on FLOOR with
-    one fixed 7-joint JointState carrying the input's stamp, on the node's output QoS: no reading,
-    no dynamics, no bookkeeping. Its CPU is what rclpy and Fast DDS cost per sample on this
-    machine, below which no rclpy node on this path can go."""
+    Joint states (on FLOOR_IN, so that the node does not take them too) are taken as CDR bytes, on
+    the node's input QoS, by the node's own :class:`~baxter_dynamics_ros.ros.node.SubscriptionThread`;
+    each is answered on FLOOR with one fixed JointState of the right arm's 7 joints (the size of the
+    node's answer) carrying the input's stamp, on the node's output QoS: no reading, no dynamics, no
+    bookkeeping. Its CPU is what rclpy and Fast DDS cost per sample on this machine, below which no
+    rclpy node on this path can go."""
     import rclpy
     from rclpy.executors import ExternalShutdownException
     from rclpy.serialization import serialize_message
@@ -110,7 +111,8 @@ def floor() -> int:
     sub_qos, pub_qos = _qos()
     publisher = node.create_publisher(JointState, FLOOR, pub_qos)
     zeros = [0.0] * 7
-    answer = bytearray(serialize_message(JointState(name=JOINTS[:7], position=zeros, velocity=zeros, effort=zeros)))
+    arm = [name for name in JOINTS if name.startswith("right_")]
+    answer = bytearray(serialize_message(JointState(name=arm, position=zeros, velocity=zeros, effort=zeros)))
 
     def relay(raw: bytes) -> None:
         answer[4:12] = raw[4:12]  # the header stamp (after the 4-byte CDR encapsulation), byte for byte
