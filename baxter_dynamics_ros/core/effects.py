@@ -87,10 +87,10 @@ def friction_law(qd, coulomb_nm, static_nm, stribeck_rad_s, smoothing_rad_s):
     return (coulomb_nm + bump) * np.tanh(qd / smoothing_rad_s)
 
 
-@vectorize(["float64(float64, float64, float64, float64)"], cache=True)
-def s1_spring_law(q_s1, preload_nm, cosine_nm, sine_nm):
-    """The s1 spring's share of the effort, N·m: preload + cosine·cos(q_s1) + sine·sin(q_s1)."""
-    return preload_nm + cosine_nm * np.cos(q_s1) + sine_nm * np.sin(q_s1)
+@vectorize(["float64(float64, float64, float64, float64, float64)"], cache=True)
+def s1_spring_law(q_s1, preload_nm, linear_nm_rad, cosine_nm, sine_nm):
+    """The s1 spring's share of the effort, N·m: preload + linear·q_s1 + cosine·cos(q_s1) + sine·sin(q_s1)."""
+    return preload_nm + linear_nm_rad * q_s1 + cosine_nm * np.cos(q_s1) + sine_nm * np.sin(q_s1)
 
 
 # ----------------------------------------------------------------------------- parameter fields
@@ -348,27 +348,35 @@ class StribeckFriction(Effect):
 class S1Spring(Effect):
     """Baxter's s1 gravity-assist spring; share of the effort on s1 only, N·m:
 
-        torque_s1 = preload_nm + cosine_nm·cos(q_s1) + sine_nm·sin(q_s1)
+        torque_s1 = preload_nm + linear_nm_rad·q_s1 + cosine_nm·cos(q_s1) + sine_nm·sin(q_s1)
 
-    A zero-free-length spring of stiffness k, anchored on the shoulder at distance a from the s1
-    axis and pulling a lever of length r on the s1 link, gives k·a·r·sin(q_s1 − q_a) = the sine and
-    cosine terms (amplitude k·a·r, phase q_a); the preload stands for the spring's free length and
-    the linkage. Three coefficients, linear: the regressor on s1 is [1, cos q_s1, sin q_s1].
-    The defaults (25, 5, 20) give 30 N·m at q_s1 = 0, 20 N·m at −0.5, 11 N·m at −1.0 (arm up) and
-    44 N·m at +1.0 (arm down): the real recordings' s1 residual (≈ 37.5 + 24.5·q_s1 N·m on
+    The spring's torque is its force times its moment arm about s1, and Baxter's springs reach the
+    s1 link through a linkage whose geometry is not the same on every unit. Two limiting mechanisms
+    span it: a spring pulling a lever (anchored at distance a from the axis, lever length r) gives
+    k·a·r·sin(q_s1 − q_a) — the cosine and sine terms, amplitude k·a·r and phase q_a (exact for a
+    zero free length); a spring acting through a cable on a cam or pulley of radius ρ stretches by
+    ρ·q_s1 at a constant moment arm, so Hooke's law gives a torque linear in q_s1 — the linear term
+    k·ρ². The preload stands for the free length and the pretension. Four coefficients, linear:
+    the regressor on s1 is [1, q_s1, cos q_s1, sin q_s1]. Over the ~1.5 rad that s1 spans in use, a
+    spring of either kind, and of a free length between them, is fitted to within the effort's
+    noise on the two real units of ``../shared/data`` (docs/real_robot_diagnosis.md); a sinusoid
+    alone left twice the plain fit's held-out s1 error on the second unit.
+    The defaults (25, 0, 5, 20) give 30 N·m at q_s1 = 0, 20 N·m at −0.5, 11 N·m at −1.0 (arm up)
+    and 44 N·m at +1.0 (arm down): the real recordings' s1 residual (≈ 37.5 + 24.5·q_s1 N·m on
     q_s1 ∈ [−1.5, 0]) scaled to 30 N·m at q_s1 = 0. :meth:`holding_torque` is the spring's
     own torque, −torque (module docstring).
     """
 
     name: ClassVar[str] = "s1_spring"
     preload_nm: float = _param("scalar", 25.0)
+    linear_nm_rad: float = _param("scalar", 0.0)
     cosine_nm: float = _param("scalar", 5.0)
     sine_nm: float = _param("scalar", 20.0)
 
     def torque(self, arm, q, qd, qdd, *, stamps_s=None):
         (q2, _, _), lead = _batch(q, qd, qdd)
         out = np.zeros_like(q2)
-        out[:, S1] = s1_spring_law(q2[:, S1], self.preload_nm, self.cosine_nm, self.sine_nm)
+        out[:, S1] = s1_spring_law(q2[:, S1], self.preload_nm, self.linear_nm_rad, self.cosine_nm, self.sine_nm)
         return out.reshape(lead + (N,))
 
     def holding_torque(self, arm, q, qd, qdd, *, stamps_s=None) -> np.ndarray:
@@ -377,15 +385,16 @@ class S1Spring(Effect):
 
     def regressor(self, arm, q, qd, qdd, *, stamps_s=None):
         (q2, _, _), lead = _batch(q, qd, qdd)
-        out = np.zeros(q2.shape + (3,))
-        out[:, S1] = np.stack([np.ones(len(q2)), np.cos(q2[:, S1]), np.sin(q2[:, S1])], axis=1)
-        return out.reshape(lead + (N, 3))
+        out = np.zeros(q2.shape + (4,))
+        q_s1 = q2[:, S1]
+        out[:, S1] = np.stack([np.ones(len(q2)), q_s1, np.cos(q_s1), np.sin(q_s1)], axis=1)
+        return out.reshape(lead + (N, 4))
 
     def parameter_vector(self, arm):
-        return np.array([self.preload_nm, self.cosine_nm, self.sine_nm])
+        return np.array([self.preload_nm, self.linear_nm_rad, self.cosine_nm, self.sine_nm])
 
     def parameter_names(self):
-        return ("preload_nm", "cosine_nm", "sine_nm")
+        return ("preload_nm", "linear_nm_rad", "cosine_nm", "sine_nm")
 
 
 class InertialChange:

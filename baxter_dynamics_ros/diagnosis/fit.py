@@ -70,6 +70,12 @@ RIDGE = 1e-9
 MAX_NEWTON_STEPS = 100
 #: A parameter within this fraction of its range's width of a bound is at the bound.
 AT_BOUND = 1e-9
+#: How far one recording's torque-sensor offset may depart from the recordings' mean, N·m. A sensor
+#: drifts by tenths of a N·m between sessions (0.09 N·m at w2 in ../shared/data/baxter_real); a
+#: larger "drift" is a state-dependent torque that per-recording offsets would hide (two recordings
+#: over different ranges of s1 gave s1 "offsets" of 21 and 33 N·m: the spring), so at such a joint
+#: the offset is one constant shared by all recordings.
+MAX_OFFSET_DRIFT_NM = 0.5
 
 
 @dataclass(frozen=True, order=True)
@@ -121,7 +127,11 @@ class Fit:
     phi: dict[int, np.ndarray] = field(default_factory=dict)
     phi_cov: dict[int, np.ndarray] = field(default_factory=dict)
     z: np.ndarray | None = None  # the inertial fit's variables (linear parameters, then φ)
-    offsets: dict[str, np.ndarray] = field(default_factory=dict)  # each training recording's own offsets
+    offsets: dict[str, np.ndarray] = field(default_factory=dict)  # each training recording's own offsets at offset_joints
+    offset_joints: tuple[int, ...] = ()  # the joints whose offsets are each recording's own
+    #: joints whose recordings' own offsets would depart from their mean by more than
+    #: MAX_OFFSET_DRIFT_NM, and that departure (N·m): their offset is held common.
+    held_common: dict[int, float] = field(default_factory=dict)
 
 
 class Fitter:
@@ -208,25 +218,62 @@ class Fitter:
         if joints:
             result = self._fit_with_offsets(model, offset, joints, fold, start)
         else:
-            H, b = (self.pool.H, self.pool.b) if fold is None else self.pool.without_group(fold)[:2]
-            rr = self.pool.rr if fold is None else self.pool.rr - self.pool.group_rr[fold]
-            result = self._fit_on(model, H, b, float(self.weights @ rr), fold, start)
+            result = self._fit_on(model, *self._statistics(fold), fold, start)
         self._cache[key] = result
         return result
+
+    def _statistics(self, fold: int | None) -> tuple[np.ndarray, np.ndarray, float]:
+        """H (7, C, C), b (7, C) of the whole pool (fold None) or of every group but ``fold``, and
+        the weighted Σ_j w_j r_j·r_j of the same samples."""
+        H, b = (self.pool.H, self.pool.b) if fold is None else self.pool.without_group(fold)[:2]
+        rr = self.pool.rr if fold is None else self.pool.rr - self.pool.group_rr[fold]
+        return H, b, float(self.weights @ rr)
 
     def _masked(self, model: Model, joint: int) -> bool:
         """s1's offset gives way to the spring's preload."""
         return joint == S1 and any(self.layout.candidates[t.candidate].name == "s1_spring" for t in model.terms)
 
+    def prior_precision(self, model: Model) -> np.ndarray:
+        """(c,) λ / σ² of the linear columns' zero-mean Gaussian priors (0 where a column has none)."""
+        sd = [self.layout.candidates[t.candidate].prior_std[: len(cols)] if self.layout.candidates[t.candidate].kind == "linear" else np.full(len(cols), np.inf)
+              for t, cols in zip(model.terms, self.term_columns(model))]  # fmt: skip
+        return self.lam / np.concatenate(sd) ** 2 if sd else np.zeros(0)
+
     def _fit_on(self, model: Model, H: np.ndarray, b: np.ndarray, constant: float, fold: int | None, start: np.ndarray | None) -> Fit:
         cols = self.columns(model)
         Hw, bw = self.weighted(H, b, cols)
+        prior = np.where(np.diag(Hw) > 0, self.prior_precision(model), 0.0)
         if any(self.layout.candidates[t.candidate].kind == "inertial" for t in model.terms):
-            return self._fit_inertial(model, cols, Hw, bw, constant, fold, start)
-        return self._fit_linear(model, cols, Hw, bw)
+            return self._fit_inertial(model, cols, Hw + np.diag(prior), bw, constant, fold, start)
+        return self._fit_linear(model, cols, Hw, bw, prior)
 
     def _fit_with_offsets(self, model: Model, offset: Term, joints: list[int], fold: int | None, start: np.ndarray | None) -> Fit:
-        """Sensor offsets as each recording's own (they drift between sessions), the rest shared.
+        """Sensor offsets as each recording's own (they drift between sessions), within a sensor's drift.
+
+        Fitted with every joint's offsets free per recording (:meth:`_profiled_offsets`); a joint
+        whose recordings' offsets then depart from their mean by more than ``MAX_OFFSET_DRIFT_NM``
+        has one offset shared by all recordings instead, and the fit is made again (until none does).
+        """
+        held: dict[int, float] = {}
+        while True:
+            fit = self._profiled_offsets(model, offset, joints, tuple(held), fold, start)
+            per_recording = np.array(list(fit.offsets.values()))
+            departure = np.max(np.abs(per_recording - per_recording.mean(axis=0)), axis=0)
+            wide = {j: float(d) for j, d in zip(joints, departure) if d > MAX_OFFSET_DRIFT_NM}
+            if not wide:
+                fit.held_common = held
+                return fit
+            held.update(wide)
+            joints = [j for j in joints if j not in wide]
+            if not joints:
+                fit = self._fit_on(model, *self._statistics(fold), fold, start)
+                fit.held_common = held
+                return fit
+
+    def _profiled_offsets(
+        self, model: Model, offset: Term, joints: list[int], held: tuple[int, ...], fold: int | None, start: np.ndarray | None
+    ) -> Fit:
+        """The fit with each recording's own offsets at ``joints`` and one shared offset at ``held``.
 
         The per-recording offsets are profiled out: at their joints every recording's statistics are
         centred on its own means (H − s sᵀ/n, b − s t/n, with s = Σφ and t = Σr the recording's sums),
@@ -251,6 +298,8 @@ class Fitter:
                 b[j] += br[j] - s_r * t_r / n_r
                 rr[j] += rrr[j] - t_r**2 / n_r
         inner_model = model.without(offset.candidate)
+        if held:
+            inner_model = inner_model.with_term(Term(offset.candidate, held))
         inner = self._fit_on(inner_model, H, b, float(self.weights @ rr), fold, start)
         inner_cols = self.columns(inner_model)
         per_recording = np.array(
@@ -274,7 +323,7 @@ class Fitter:
         names = list(self.pool.recordings_without(fold))
         return Fit(
             model, x, cov, free, inner.df + len(joints), inner.phi, inner.phi_cov, inner.z,
-            offsets={name: row for name, row in zip(names, per_recording)},
+            offsets={name: row for name, row in zip(names, per_recording)}, offset_joints=tuple(joints),
         )  # fmt: skip
 
     def cv_sse(self, model: Model) -> tuple[np.ndarray, list[Fit], np.ndarray]:
@@ -290,7 +339,9 @@ class Fitter:
             per_fold[g] = self.sse(cols, f.x, self.pool.group_H[g], self.pool.group_b[g], self.pool.group_rr[g])
         return per_fold.sum(axis=0), fits, per_fold
 
-    def _fit_linear(self, model: Model, cols: np.ndarray, Hw: np.ndarray, bw: np.ndarray) -> Fit:
+    def _fit_linear(self, model: Model, cols: np.ndarray, Hw: np.ndarray, bw: np.ndarray, prior: np.ndarray) -> Fit:
+        """Bounded least squares of the linear columns; prior (c,) the precision of their zero-mean
+        priors, which the effective number of parameters tr((H + P)⁻¹ H) discounts."""
         c = len(cols)
         x = np.zeros(c)
         cov = np.zeros((c, c))
@@ -301,7 +352,8 @@ class Fitter:
         diag = np.diag(Hw).copy()
         seen = diag > 1e-14 * max(float(diag.max()), 1e-300)
         scale = np.sqrt(diag[seen])
-        Hs = Hw[np.ix_(seen, seen)] / np.outer(scale, scale) + RIDGE * np.eye(int(seen.sum()))
+        data = Hw[np.ix_(seen, seen)] / np.outer(scale, scale)
+        Hs = data + np.diag(prior[seen] / scale**2) + RIDGE * np.eye(int(seen.sum()))
         bs = bw[seen] / scale
         low = lower[seen] * scale
         if np.all(~np.isfinite(low)):
@@ -316,11 +368,13 @@ class Fitter:
         x[seen] = ys / scale
         idx = np.flatnonzero(seen)[~active]
         free[idx] = True
+        df = 0.0
         if len(idx):
             inv = np.linalg.inv(Hs[np.ix_(~active, ~active)])
             s = scale[~active]
             cov[np.ix_(idx, idx)] = self.lam * inv / np.outer(s, s)
-        return Fit(model, x, cov, free, float(len(idx)))
+            df = float(np.einsum("ij,ji->", inv, data[np.ix_(~active, ~active)]))
+        return Fit(model, x, cov, free, df)
 
     # -- inertial terms (log-Cholesky)
     def link_setup(self, cand: Candidate) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -430,8 +484,8 @@ class Fitter:
             gauss[n_lin:, n_lin:] += np.diag(prior_w)
             return cost, grad, gauss, second
 
-        if start is not None:
-            z0 = start  # a fold starts from the whole pool's fit
+        if start is not None and len(start) == n_z:
+            z0 = start  # a fold starts from the whole pool's fit (unless it holds other offsets common)
         else:
             # The last fit of each term (a neighbouring model's), else zero and the paper's values.
             start_lin = np.array([self._warm_x.get(int(col), 0.0) for col in cols[lin_pos]])

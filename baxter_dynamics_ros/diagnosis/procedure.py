@@ -55,7 +55,7 @@ from ..core.joints import JOINTS as N
 from ..core.log_cholesky import pseudo_from_log_cholesky
 from ..core.recording import MIN_FIT_S, Recording, require_total_span
 from ..errors import DiagnosisError, RecordingError
-from .fit import Fit, Fitter, Model, Term
+from .fit import MAX_OFFSET_DRIFT_NM, Fit, Fitter, Model, Term
 from .gap_analysis import GapSummary, gap_summary, quantile_edges, wanted_bins
 from .passes import Reduction, Screening, TestFigures, reduce, screen, test_figures
 from .selection import FAMILY_OF, MIN_JOINT_GAIN, MIN_JOINT_GAIN_NM, Evaluation, select
@@ -172,6 +172,9 @@ class DiagnosisResult:
                 + ", ".join(self.worse_joints)
                 + ": the fitted set does not carry over to the test data there."
             )
+        offset = next((e for e in self.selected() if e.drift and e.drift["held_common"]), None)
+        if offset is not None:
+            out.append("Torque offsets: " + _hidden_torque(offset.drift["held_common"]) + ".")
         uncertain = [e.name for e in self.selected() if e.uncertain]
         if uncertain:
             out.append(
@@ -263,7 +266,7 @@ def _effect_of(cand: Candidate, values: np.ndarray, phi: np.ndarray | None) -> E
     if isinstance(t, Delay):
         return Delay(delay_s=values)
     if isinstance(t, S1Spring):
-        return S1Spring(preload_nm=values[0], cosine_nm=values[1], sine_nm=values[2])
+        return S1Spring(preload_nm=values[0], linear_nm_rad=values[1], cosine_nm=values[2], sine_nm=values[3])
     if isinstance(t, Payload):
         m, c, inertia = _inertial_quantities(phi[0])
         return Payload(mass_kg=m, com_m=c, inertia_kgm2=inertia[[0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]])
@@ -531,6 +534,8 @@ def _selected_reports(ctx: _Context, ev: Evaluation, fold_models: list[Model]) -
             reason += "; in other folds its alternative " + ", ".join(f"{k} ({v} of {len(fold_models)})" for k, v in alternatives.items())
         if drift is not None and drift["drifting"]:
             reason += f"; drifts between recordings at {_short(drift['drifting'])} (see drift)"
+        if drift is not None and drift["held_common"]:
+            reason += "; " + _hidden_torque(drift["held_common"])
         out.append(
             EffectReport(
                 cand.name, cand.variant, True, 0, reason, params, params_std, joints, gain, final_test, final_test, effect,
@@ -589,33 +594,49 @@ def _offset_drift(ctx: _Context, model: Model, fit: Fit, term: Term) -> dict:
     spread, and the joints where the spread exceeds twice the uncertainty of one recording's own
     offset (its residual level over its effective samples) and 0.01 N·m.
 
+    held_common: the joints whose recordings' own offsets would depart from their mean by more than
+    a sensor drifts (``MAX_OFFSET_DRIFT_NM``), with that departure: a state-dependent torque the
+    selected effects lack, not drift; the offset there is one constant of all recordings.
     The test recordings' own offsets (the other parameters held at the fit) are listed too, as a
     held-out check; they change nothing."""
     cols = ctx.fitter.columns(model)
-    where = ctx.fitter.positions(model)[term]
-    joints = [j for j in term.joints if ctx.layout.candidates[term.candidate].columns[j] in cols[where]]
-    others = np.array([k for k in range(len(cols)) if k not in set(where.tolist())], dtype=int)
+    cand = ctx.layout.candidates[term.candidate]
+    position = {int(cols[p]): int(p) for p in ctx.fitter.positions(model)[term]}
+    joints = list(fit.offset_joints)
+    own = np.array([position[int(cand.columns[j])] for j in joints], dtype=int)
+    others = np.setdiff1d(np.arange(len(cols)), own)
     test_offsets = {}
     for blk in ctx.test.blocks:
         test_offsets[blk.recording] = [
-            float((blk.b[j, cols[p]] - blk.H[j, cols[p], cols[others]] @ fit.x[others]) / blk.H[j, cols[p], cols[p]]) for j, p in zip(joints, where)
+            float((blk.b[j, cols[p]] - blk.H[j, cols[p], cols[others]] @ fit.x[others]) / blk.H[j, cols[p], cols[p]]) for j, p in zip(joints, own)
         ]
-    values = np.array(list(fit.offsets.values()))
+    values = np.array(list(fit.offsets.values())).reshape(-1, len(joints))
     spread = values.std(axis=0, ddof=1) if len(values) > 1 else np.full(len(joints), np.nan)
     # How well one recording fixes its own offset: its residual level over its effective samples.
-    samples = np.array([[H[j, cols[p], cols[p]] for j, p in zip(joints, where)] for H, _, _ in ctx.pool.recording_sums(None)])
+    samples = np.array([[H[j, cols[p], cols[p]] for j, p in zip(joints, own)] for H, _, _ in ctx.pool.recording_sums(None)])
     within = np.sqrt(np.mean(ctx.fitter.lam / (samples * ctx.fitter.weights[joints]), axis=0))
     names = [ctx.arm.joint_names[j] for j in joints]
     drifting = [n for n, s, u in zip(names, spread, within) if np.isfinite(s) and s > max(2 * u, 0.01)]
     return {
         "joints": names,
-        "constant_nm": fit.x[where].tolist(),
+        "constant_nm": fit.x[own].tolist(),
         "per_recording_nm": {k: v.tolist() for k, v in fit.offsets.items()},
         "spread_nm": [None if not np.isfinite(s) else float(s) for s in spread],
         "test_recordings_nm": test_offsets,
         "drifting": drifting,
+        "held_common": {ctx.arm.joint_names[j]: d for j, d in fit.held_common.items()},
+        "max_drift_nm": MAX_OFFSET_DRIFT_NM,
         "note": "one training recording: drift between recordings cannot be measured" if len(values) < 2 else "",
     }
+
+
+def _hidden_torque(held: dict[str, float]) -> str:
+    """The sentence for offsets held common: a state-dependent torque, not a sensor's drift."""
+    where = ", ".join(f"{n.split('_', 1)[-1]} ({d:.3g} N·m)" for n, d in held.items())
+    return (
+        f"each recording's own offset would depart from their mean by more than a sensor drifts ({MAX_OFFSET_DRIFT_NM:g} N·m) at {where}: "
+        "a state-dependent torque the selected effects lack, not drift; one offset is held for all recordings there"
+    )
 
 
 def _noise_report(ctx: _Context, cutoff: float) -> EffectReport:

@@ -176,6 +176,13 @@ def _drift_section(result: DiagnosisResult, joints: list[str]) -> str:
         if d["drifting"]
         else "<p>The offsets agree across the training recordings (within twice their uncertainty and 0.01 N·m).</p>"
     )
+    if d["held_common"]:
+        held = ", ".join(f"{j.split('_', 1)[-1]} ({v:.3g} N·m)" for j, v in d["held_common"].items())
+        text += (
+            f"<p><b>Not drift at {html.escape(held)}</b>: there each recording's own offset would depart from their mean by more "
+            f"than a torque sensor drifts ({d['max_drift_nm']:g} N·m) — a state-dependent torque the selected effects lack. "
+            "One offset is held for all recordings there.</p>"
+        )
     return "<h2>Sensor offsets per recording [N·m]</h2>" + (f"<p>{html.escape(d['note'])}</p>" if d["note"] else "") + text + _table(["recording", *names], rows)
 
 

@@ -16,7 +16,7 @@ error of any fit x on any block is then exact: r·r − 2 x·b + xᵀ H x.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -53,6 +53,11 @@ __all__ = [
 
 #: Cut-offs (Hz) tried for the denoised world's zero-phase low-pass on q̇.
 CUTOFF_GRID_HZ = (1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0)
+#: Prior standard deviation of the s1 spring's shape coefficients (linear N·m/rad, cosine, sine N·m)
+#: about zero; its preload has none. Two real units' springs have them within ±30 N·m when the
+#: recordings span s1 widely; on a narrow span the four terms trade off, and without the prior a
+#: fit on one recording reached thousands of N·m and missed the next recording by as much.
+SPRING_PRIOR_STD_NM = 50.0
 #: Regressor rows evaluated at once (bounds the memory of the statistics pass).
 CHUNK = 8192
 
@@ -65,7 +70,8 @@ class Candidate:
     ``columns[k * 7 + j]`` is parameter k at joint j); "linear" — a fixed set of columns (the s1
     spring); "inertial" — inertial parameters of whole links, fitted through the log-Cholesky
     parametrisation (:mod:`baxter_dynamics_ros.core.log_cholesky`), ``links`` the link indices.
-    lower: (p,) lower bounds of the linear kinds' parameters.
+    lower: (p,) lower bounds of the linear kinds' parameters; prior_std: (p,) standard deviations of
+    the zero-mean Gaussian priors of a "linear" kind's parameters (inf: none).
     """
 
     name: str
@@ -76,6 +82,7 @@ class Candidate:
     lower: np.ndarray
     p_joint: int = 0
     links: tuple[int, ...] = ()
+    prior_std: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def label(self) -> str:
@@ -107,7 +114,7 @@ def column_layout() -> ColumnLayout:
         specs.append(("coulomb_friction", f"smoothing {eps:g} rad/s", "joint", CoulombFriction(friction_nm=0.0, smoothing_rad_s=eps), 1, zero))
     for vs in (0.02, 0.05, 0.1, 0.2):
         specs.append(("stribeck_friction", f"v_s {vs:g} rad/s", "joint", StribeckFriction(coulomb_nm=0.0, static_nm=0.0, stribeck_rad_s=vs), 2, zero))
-    specs.append(("s1_spring", "", "linear", S1Spring(), 3, free))
+    specs.append(("s1_spring", "", "linear", S1Spring(), 4, free))
     specs.append(("inertial_error", "", "inertial", InertialError(), 70, free))
     specs.append(("armature", "", "joint", Armature(inertia_kgm2=0.0), 1, zero))
     specs.append(("delay", "", "joint", Delay(delay_s=0.0), 1, free))
@@ -120,7 +127,8 @@ def column_layout() -> ColumnLayout:
             inertial_start = start
             candidates.append(Candidate(name, variant, kind, template, columns, np.full(width, free), links=tuple(range(N))))
         else:
-            candidates.append(Candidate(name, variant, kind, template, columns, np.full(width, low), p_joint=p if kind == "joint" else 0))
+            prior = np.array((np.inf,) + (SPRING_PRIOR_STD_NM,) * (p - 1)) if kind == "linear" else np.zeros(0)
+            candidates.append(Candidate(name, variant, kind, template, columns, np.full(width, low), p_joint=p if kind == "joint" else 0, prior_std=prior))
         blocks.append((template, start, width))
         start += width
     # The payload: a change of link 7's inertial parameters, the last 10 of inertial_error's columns.

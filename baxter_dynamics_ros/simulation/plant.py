@@ -83,14 +83,14 @@ def _plant_share(q, qd, viscous, friction, spring, out):
     """Σ of the state-dependent effect shares (friction, spring), N·m, into out (7,).
 
     friction (2, 4, 7): for the Coulomb and the Stribeck effect, rows F_c, F_s, v_s, v_ε.
-    spring (3,): preload, cosine, sine coefficients (zeros when off).
+    spring (4,): preload, linear, cosine, sine coefficients (zeros when off).
     """
     for j in range(N):
         s = viscous[j] * qd[j]
         for f in range(2):
             s += friction_law(qd[j], friction[f, 0, j], friction[f, 1, j], friction[f, 2, j], friction[f, 3, j])
         out[j] = s
-    out[S1] += s1_spring_law(q[S1], spring[0], spring[1], spring[2])
+    out[S1] += s1_spring_law(q[S1], spring[0], spring[1], spring[2], spring[3])
 
 
 @njit(cache=True)
@@ -288,7 +288,7 @@ def _plant(arm: ArmModel, spec: SimulationSpec) -> _Plant:
         np.zeros(N) if armature is None else armature.inertia_kgm2.copy(),
         np.zeros(N) if viscous is None else viscous.damping_nm_s_rad.copy(),
         friction,
-        np.zeros(3) if spring is None else np.array([spring.preload_nm, spring.cosine_nm, spring.sine_nm]),
+        np.zeros(4) if spring is None else spring.parameter_vector(arm),
     )
 
 
