@@ -1,0 +1,219 @@
+"""The selection (diagnosis/selection.py) and what the diagnosis reports of it, against references
+computed another way: per-joint least squares with numpy on explicitly built regressors (q̇,
+tanh(q̇/ε)), Akaike's score written out by hand, the Wald statistic and scipy's χ² quantile, a
+brute-force Shapley value over every subset, and the selection run again on each fold's training
+recordings. Recordings are small and built by ``synthetic_recordings`` (Pinocchio for the rigid body).
+"""
+
+from __future__ import annotations
+
+from itertools import combinations
+from math import factorial
+
+import numpy as np
+import pytest
+from scipy.stats import chi2
+from synthetic_recordings import block_edges, blocks_of, friction_scenario, recording
+
+from baxter_dynamics_ros.diagnosis.fit import DECORRELATION_S, Fit, Model, Term
+from baxter_dynamics_ros.diagnosis.procedure import DiagnosisResult, diagnose
+from baxter_dynamics_ros.diagnosis.selection import Evaluation, _Search, select
+from baxter_dynamics_ros.diagnosis.statistics import Pool, column_layout, prepare
+from baxter_dynamics_ros.diagnosis.validation import validation_arm
+
+N = 7
+CUTOFF_HZ = 4.0
+
+
+@pytest.fixture(scope="module")
+def arm():
+    return validation_arm()
+
+
+@pytest.fixture(scope="module")
+def friction_run(arm) -> tuple[DiagnosisResult, list, list]:
+    train, test = friction_scenario(arm)
+    return diagnose(arm, train, test), train, test
+
+
+def _index(layout, name: str, variant: str | None = None) -> int:
+    return next(i for i, c in enumerate(layout.candidates) if c.name == name and (variant is None or c.variant == variant))
+
+
+def _ls_sse(x_fit: list[np.ndarray], r_fit: list[np.ndarray], x_out: np.ndarray, r_out: np.ndarray) -> float:
+    """Held-out squared error of numpy's least squares of r on the columns x, fitted on the other data."""
+    coef = np.linalg.lstsq(np.vstack(x_fit), np.concatenate(r_fit), rcond=None)[0] if x_fit[0].shape[1] else np.zeros(0)
+    return float(np.sum((r_out - x_out @ coef) ** 2))
+
+
+# ----------------------------------------------------------------------------- the score
+def test_score_is_akaike_on_held_out_error(arm) -> None:
+    """With viscous friction alone injected, the selected model's score equals Σ_j w_j CV_j · n_eff/n
+    + 2 p, written out by hand: CV_j from numpy's least squares of the denoised residual on q̇_j
+    fitted on one recording and measured on the other, w_j = n / CV_j, n_eff the blocks' spans over
+    0.1 s, p the viscous parameters (no prior, bounds inactive)."""
+    layout = column_layout()
+    named = [("A", recording(arm, 11, viscous=[2.0, 3.0, 1.2, 1.2, 0.3, 0.3, 0.1])), ("B", recording(arm, 12, viscous=[2.0, 3.0, 1.2, 1.2, 0.3, 0.3, 0.1]))]
+    pool = Pool.of(blocks_of(arm, named, CUTOFF_HZ))
+    selection = select(arm, layout, pool)
+    viscous = _index(layout, "viscous_friction")
+    assert [t.candidate for t in selection.model.terms] == [viscous]
+    joints = selection.model.terms[0].joints
+    prepared = [prepare(arm, rec, CUTOFF_HZ) for _, rec in named]
+    cv = np.zeros(N)
+    for j in range(N):
+        for out in range(2):
+            cols = lambda p: p.qd[:, [j]] if j in joints else np.zeros((len(p.qd), 0))  # noqa: E731
+            fit_on = [p for k, p in enumerate(prepared) if k != out]
+            cv[j] += _ls_sse([cols(p) for p in fit_on], [p.residual[:, j] for p in fit_on], cols(prepared[out]), prepared[out].residual[:, j])
+    n = sum(len(rec) for _, rec in named)
+    span = sum(float(rec.stamps_s[hi - 1] - rec.stamps_s[lo]) for _, rec in named for lo, hi in block_edges(len(rec), 4))
+    lam = n / max(span / DECORRELATION_S, 1.0)
+    np.testing.assert_allclose(selection.evaluation.cv, cv, rtol=1e-6)
+    np.testing.assert_allclose(selection.fitter.weights, n / cv, rtol=1e-6)
+    expected = float(np.sum(n / cv * cv)) / lam + 2.0 * len(joints)
+    assert selection.evaluation.score == pytest.approx(expected, rel=1e-7, abs=1e-6)
+
+
+# ----------------------------------------------------------------------------- the Wald test
+def _evaluation(x: np.ndarray, cov: np.ndarray, fold_x: list[np.ndarray], free: np.ndarray | None = None) -> Evaluation:
+    c = len(x)
+    fit = Fit(Model(), x, cov, np.ones(c, bool) if free is None else free, float(c))
+    folds = [Fit(Model(), f, np.zeros((c, c)), np.ones(c, bool), float(c)) for f in fold_x]
+    return Evaluation(Model(), fit, folds, np.zeros(N), 0.0, np.zeros((len(folds), N)))
+
+
+def test_wald_test_against_chi_square(arm) -> None:
+    """The test that a term's parameters differ from zero: xᵀ (C + J)⁻¹ x against scipy's 95 % χ²
+    quantile with as many degrees of freedom as parameters, C the fit's covariance and J the
+    jackknife covariance of the fold fits ((k−1)/k Σ (x_i − x̄)(x_i − x̄)ᵀ), both written out here;
+    parameters at their bound count as zero. Cases just below and just above the quantile."""
+    named = [("A", recording(arm, 11, viscous=1.0)), ("B", recording(arm, 12, viscous=1.0))]
+    search = _Search(arm, column_layout(), Pool.of(blocks_of(arm, named, CUTOFF_HZ)))
+    cov = np.array([[0.04, 0.01], [0.01, 0.09]])
+    folds = [np.array([0.30, 0.10]), np.array([0.50, 0.20]), np.array([0.40, 0.0])]
+    f = np.array(folds)
+    jack = (len(f) - 1) / len(f) * (f - f.mean(axis=0)).T @ (f - f.mean(axis=0))
+    total = cov + jack
+    direction = np.array([1.0, 0.6])
+    unit = direction / np.sqrt(direction @ np.linalg.solve(total, direction))  # Wald statistic 1
+    quantile = chi2.ppf(0.95, df=2)
+    positions = np.arange(2)
+    below = _evaluation(unit * np.sqrt(0.97 * quantile), cov, folds)
+    above = _evaluation(unit * np.sqrt(1.03 * quantile), cov, folds)
+    assert not search.significant(below, positions)
+    assert search.significant(above, positions)
+    # One of two parameters at its bound: only the other counts, against χ²(1).
+    x = np.array([0.0, 0.5 * np.sqrt(chi2.ppf(0.95, df=2) * total[1, 1])])
+    assert np.sqrt(x[1] ** 2 / total[1, 1]) < np.sqrt(chi2.ppf(0.95, 2))
+    assert not search.significant(_evaluation(x, cov, folds, free=np.array([False, True])), positions)
+    assert not search.significant(_evaluation(np.array([3.0, 0.0]), cov, folds, free=np.array([False, False])), positions)
+
+
+# ----------------------------------------------------------------------------- stability and attribution
+def test_folds_selected_is_the_folds_own_selection(arm, friction_run) -> None:
+    """folds_selected and joint_folds count the effects that the selection, run again here on each
+    fold's training recordings (all but one, reduced anew), picks; Coulomb friction, absent from one
+    training recording, is not picked by every fold (so a count of all folds cannot pass)."""
+    result, train, _ = friction_run
+    layout = column_layout()
+    fold_models = []
+    for out in range(len(train)):
+        kept = [item for k, item in enumerate(train) if k != out]
+        fold_models.append(select(arm, layout, Pool.of(blocks_of(arm, kept, result.cutoff_hz))).model)
+    selected = {e.name: e for e in result.effects if e.selected and e.name != "acceleration_noise"}
+    assert {"viscous_friction", "coulomb_friction"} <= set(selected)
+    for name, e in selected.items():
+        terms = [next((t for t in m.terms if layout.candidates[t.candidate].name == name), None) for m in fold_models]
+        assert e.folds == len(train)
+        assert e.folds_selected == sum(t is not None for t in terms), name
+        for joint, count in e.joint_folds.items():
+            j = arm.joint_names.index(joint)
+            assert count == sum(t is not None and j in t.joints for t in terms), (name, joint)
+    assert selected["coulomb_friction"].folds_selected < len(train)
+    assert selected["coulomb_friction"].uncertain
+
+
+def test_shares_are_shapley_values(arm, friction_run) -> None:
+    """Each selected physical effect's share is its Shapley value in the training residual's fall,
+    brute force over every subset of the selected effects: each subset refitted by numpy's least
+    squares per joint on q̇ and tanh(q̇/ε) of the pooled training recordings (denoised residual).
+    The two frictions overlap at the joint they share, so a standalone value differs from it."""
+    result, train, _ = friction_run
+    selected = [e for e in result.effects if e.selected and e.name != "acceleration_noise"]
+    assert {e.name for e in selected} == {"viscous_friction", "coulomb_friction"}
+    prepared = [prepare(arm, rec, result.cutoff_hz) for _, rec in train]
+    qd = np.vstack([p.qd for p in prepared])
+    r = np.vstack([p.residual for p in prepared])
+    n = len(r)
+    columns = {}
+    for e in selected:
+        j_of = [arm.joint_names.index(j) for j in e.joints]
+        if e.name == "viscous_friction":
+            columns[e.name] = {j: qd[:, j] for j in j_of}
+        else:
+            columns[e.name] = {j: np.tanh(qd[:, j] / e.effect.smoothing_rad_s) for j in j_of}
+
+    def value(subset: tuple[str, ...]) -> float:
+        fall = 0.0
+        for j in range(N):
+            x = [columns[name][j] for name in subset if j in columns[name]]
+            if x:
+                X = np.column_stack(x)
+                coef = np.linalg.lstsq(X, r[:, j], rcond=None)[0]
+                fall += float(np.sum(r[:, j] ** 2) - np.sum((r[:, j] - X @ coef) ** 2))
+        return fall / n
+
+    names = [e.name for e in selected]
+    k = len(names)
+    for e in selected:
+        others = [m for m in names if m != e.name]
+        shapley = sum(
+            factorial(size) * factorial(k - size - 1) / factorial(k) * (value((*s, e.name)) - value(s))
+            for size in range(k)
+            for s in combinations(others, size)
+        )
+        assert e.share == pytest.approx(shapley, rel=1e-5), e.name
+        if e.name == "coulomb_friction":
+            assert abs(value((e.name,)) - shapley) > 1e-3 * abs(shapley)  # standalone ≠ Shapley here
+
+
+# ----------------------------------------------------------------------------- weak or absent effects
+def test_pure_noise_selects_nothing_physical(arm) -> None:
+    """Recordings of the rigid arm with effort noise at the sensor's floor (0.1 N·m) and q̇ noise
+    (0.015 rad/s) only: no physical effect is selected; the q̈ filter (acceleration_noise) is."""
+    train = [(f"n{s}", recording(arm, s, effort_noise_nm=0.1, velocity_noise_rad_s=0.015)) for s in (31, 32)]
+    test = [("t", recording(arm, 33, effort_noise_nm=0.1, velocity_noise_rad_s=0.015))]
+    result = diagnose(arm, train, test)
+    assert [e.name for e in result.selected()] == ["acceleration_noise"], result.search
+
+
+def test_coulomb_below_the_quantisation_is_rejected(arm) -> None:
+    """Coulomb friction of 0.005 N·m at every joint, about the effort's quantum (0.004 N·m), under
+    0.02 N·m noise: the selection on three recordings picks nothing."""
+    named = [(f"c{s}", recording(arm, s, coulomb=0.005)) for s in (41, 42, 43)]
+    selection = select(arm, column_layout(), Pool.of(blocks_of(arm, named, CUTOFF_HZ)))
+    assert selection.model == Model(), selection.moves
+
+
+def test_offset_within_the_noise_is_rejected(arm) -> None:
+    """A torque offset of 0.002 N·m at w2 (half the quantum) in two recordings: not selected, and the
+    unselected effects' reasons say why each was left out."""
+    from baxter_dynamics_ros.diagnosis.selection import explain_unselected
+
+    named = [(f"o{s}", recording(arm, s, viscous=[0, 0, 0, 0, 0, 0, 0])) for s in (51, 52)]
+    named = [(label, _with_offset(rec, 6, 0.002)) for label, rec in named]
+    layout = column_layout()
+    pool = Pool.of(blocks_of(arm, named, CUTOFF_HZ))
+    selection = select(arm, layout, pool)
+    assert selection.model == Model(), selection.moves
+    why = explain_unselected(arm, layout, pool, selection.evaluation, selection.fitter)
+    assert why["torque_offset"][2]
+
+
+def _with_offset(rec, joint: int, value: float):
+    from baxter_dynamics_ros.core.recording import Recording
+
+    effort = rec.effort.copy()
+    effort[:, joint] = np.round((effort[:, joint] + value) / 0.004) * 0.004
+    return Recording(rec.side, rec.joint_names, rec.stamps_ns, rec.q, rec.qd, effort)
