@@ -101,3 +101,17 @@ def friction_scenario(arm: ArmModel) -> tuple[list[tuple[str, Recording]], list[
     ]
     test = [("T1", recording(arm, 4, viscous=VISCOUS, coulomb=COULOMB)), ("T2", recording(arm, 5, 9.0, viscous=VISCOUS, coulomb=COULOMB))]
     return train, test
+
+
+def reference_residuals(arm: ArmModel, rec: Recording, cutoff_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """(raw, denoised) rigid residuals (n, 7) N·m of a recording, without the package's dynamics:
+    Pinocchio's RNEA with q̈ the first difference of q̇ (q̈_0 = 0), and with q̈ the central
+    difference of q̇ low-passed forwards and backwards by scipy (Butterworth, order 2, at cutoff_hz)."""
+    from scipy.signal import butter, sosfiltfilt
+
+    t = rec.stamps_s
+    qdd_raw = np.zeros_like(rec.qd)
+    qdd_raw[1:] = np.diff(rec.qd, axis=0) / np.diff(t)[:, None]
+    smooth = sosfiltfilt(butter(2, cutoff_hz, fs=rec.rate_hz, output="sos"), rec.qd, axis=0)
+    qdd = np.gradient(smooth, 1.0 / rec.rate_hz, axis=0)
+    return rec.effort - rigid_torque(arm, rec.q, rec.qd, qdd_raw), rec.effort - rigid_torque(arm, rec.q, rec.qd, qdd)
