@@ -1,0 +1,91 @@
+"""Fits on sufficient statistics (diagnosis/fit.py) against references computed another way: numpy's
+least squares on regressor columns built here (q̇, tanh(q̇/ε)) over the recordings' samples, and
+payloads whose torques Pinocchio computes for the arm carrying them (the fit must recover a load in
+its physical box and stop at the box for one outside it)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from synthetic_recordings import COULOMB, VISCOUS, blocks_of, recording
+
+from baxter_dynamics_ros.core.effects import Payload
+from baxter_dynamics_ros.core.log_cholesky import pseudo_from_log_cholesky
+from baxter_dynamics_ros.diagnosis.fit import Fitter, Model, Term
+from baxter_dynamics_ros.diagnosis.statistics import Pool, column_layout, prepare
+from baxter_dynamics_ros.diagnosis.validation import validation_arm
+
+N = 7
+CUTOFF_HZ = 4.0
+
+
+@pytest.fixture(scope="module")
+def arm():
+    return validation_arm()
+
+
+def _index(layout, name: str, variant: str = "") -> int:
+    return next(i for i, c in enumerate(layout.candidates) if c.name == name and c.variant == variant)
+
+
+def test_linear_fit_and_cross_validation_are_least_squares(arm) -> None:
+    """Viscous and Coulomb friction (ε 0.05 rad/s) at every joint: the fit's parameters are numpy's
+    least squares of each joint's denoised residual on [q̇_j, tanh(q̇_j/ε)] over both recordings, the
+    effective number of parameters is their count, and the cross-validated error is the held-out
+    squared error of the fit on the other recording, per joint."""
+    layout = column_layout()
+    named = [("A", recording(arm, 81, viscous=VISCOUS, coulomb=COULOMB)), ("B", recording(arm, 82, viscous=VISCOUS, coulomb=COULOMB))]
+    pool = Pool.of(blocks_of(arm, named, CUTOFF_HZ))
+    fitter = Fitter(arm, layout, pool, np.ones(N), 3.0)
+    viscous, coulomb = _index(layout, "viscous_friction"), _index(layout, "coulomb_friction", "smoothing 0.05 rad/s")
+    model = Model.of([Term(viscous, tuple(range(N))), Term(coulomb, tuple(range(N)))])
+    fit = fitter.fit(model)
+    prepared = [prepare(arm, rec, CUTOFF_HZ) for _, rec in named]
+
+    def columns(p, j):
+        return np.column_stack([p.qd[:, j], np.tanh(p.qd[:, j] / 0.05)])
+
+    cv = np.zeros(N)
+    for j in range(N):
+        X = np.vstack([columns(p, j) for p in prepared])
+        r = np.concatenate([p.residual[:, j] for p in prepared])
+        coef = np.linalg.lstsq(X, r, rcond=None)[0]
+        assert np.all(coef > 0)  # bounds inactive: the reference needs none
+        np.testing.assert_allclose(fit.x[[j, N + j]], coef, rtol=1e-6)
+        for out in range(2):
+            p_fit, p_out = prepared[1 - out], prepared[out]
+            c = np.linalg.lstsq(columns(p_fit, j), p_fit.residual[:, j], rcond=None)[0]
+            cv[j] += float(np.sum((p_out.residual[:, j] - columns(p_out, j) @ c) ** 2))
+    assert fit.df == pytest.approx(2 * N, abs=1e-4)
+    np.testing.assert_allclose(fitter.cv_sse(model)[0], cv, rtol=1e-6)
+    np.testing.assert_allclose(fit.x[:N], VISCOUS, rtol=0.1)
+
+
+def _fitted_payload(arm, load: Payload) -> tuple[float, np.ndarray]:
+    """(mass kg, centre of mass (3,) m in the flange frame) of the payload fitted to two recordings of
+    the arm carrying ``load`` (torques from Pinocchio's model of the loaded arm)."""
+    carried = load.apply_to(arm)
+    named = [(f"p{s}", recording(arm, s, carried=carried)) for s in (91, 92)]
+    layout = column_layout()
+    pool = Pool.of(blocks_of(arm, named, CUTOFF_HZ))
+    index = _index(layout, "payload")
+    fit = Fitter(arm, layout, pool, np.ones(N), 3.0).fit(Model.of([Term(index, tuple(range(N)))]))
+    J = pseudo_from_log_cholesky(fit.phi[index][0])
+    mass = float(J[3, 3])
+    return mass, J[:3, 3] / mass
+
+
+def test_payload_inside_its_box_is_recovered(arm) -> None:
+    """A 1.5 kg load 2 cm off-axis and 6 cm out along the flange: mass within 3 %, centre of mass within 1 cm."""
+    mass, com = _fitted_payload(arm, Payload(mass_kg=1.5, com_m=(0.0, 0.02, 0.06)))
+    assert mass == pytest.approx(1.5, rel=0.03)
+    np.testing.assert_allclose(com, [0.0, 0.02, 0.06], atol=0.01)
+
+
+def test_payload_outside_its_box_stops_at_the_box(arm) -> None:
+    """An 8 kg load 0.5 m off-axis and 0.6 m out: the fit is held at the physical box (mass at most
+    5 kg, centre of mass within ±0.1 m across and at most 0.3 m out), not carried to the load."""
+    mass, com = _fitted_payload(arm, Payload(mass_kg=8.0, com_m=(0.5, 0.0, 0.6)))
+    assert mass <= 5.0 * (1 + 1e-6)
+    assert np.all(np.abs(com[:2]) <= 0.1 + 1e-6)
+    assert -0.05 - 1e-6 <= com[2] <= 0.3 + 1e-6
