@@ -12,6 +12,7 @@ import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
+from synthetic_recordings import reference_residuals
 
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.core.acceleration import first_difference, zero_phase_acceleration
@@ -95,8 +96,9 @@ class _Watched:
 
 def test_the_diagnosis_holds_one_recording_at_a_time() -> None:
     """Every read finds the recordings read before released, each training file is read twice and
-    each test file three times (checks and scores; statistics; held-out figures), and the result is
-    that of the same recordings given in memory."""
+    each test file three times (checks and scores; statistics; held-out figures), the result is
+    that of the same recordings given in memory, and its rigid-model figures are those of Pinocchio's
+    residuals of the recordings put together (``synthetic_recordings.reference_residuals``)."""
     scenario = SCENARIOS[0]
     train = simulated_recordings(scenario, scenario.train, scenario.per_recording[:3])
     test = simulated_recordings(scenario, scenario.test, scenario.per_recording[3:])
@@ -107,3 +109,15 @@ def test_the_diagnosis_holds_one_recording_at_a_time() -> None:
     assert [s.reads for s in train_sources] == [2] * 3 and [s.reads for s in test_sources] == [3] * 2
     in_memory = diagnose(validation_arm(), train, test)
     assert json.dumps(streamed.to_dict()) == json.dumps(in_memory.to_dict())  # NaN (an empty band) written alike
+    # The streamed figures against the recordings put together, without the diagnosis' code:
+    # Pinocchio's residuals with the paper's and with scipy's filtered q̈ at the chosen cut-off.
+    arm = validation_arm()
+    rms = lambda rs: np.sqrt(np.mean(np.vstack(rs) ** 2, axis=0))  # noqa: E731
+    raw_train = [reference_residuals(arm, rec, streamed.cutoff_hz)[0] for _, rec in train]
+    raw_test, den_test = zip(*(reference_residuals(arm, rec, streamed.cutoff_hz) for _, rec in test))
+    np.testing.assert_allclose(streamed.baseline_train_rms, rms(raw_train), rtol=1e-5)
+    np.testing.assert_allclose(streamed.baseline_test_rms, rms(raw_test), rtol=1e-5)
+    np.testing.assert_allclose(streamed.denoised_test_rms, rms(den_test), rtol=1e-5)
+    np.testing.assert_allclose(streamed.gap.rms, rms(raw_test), rtol=1e-5)
+    np.testing.assert_allclose(streamed.gap_filtered.rms, rms(den_test), rtol=1e-5)
+    np.testing.assert_allclose(streamed.test_series["baseline"], np.vstack(raw_test), rtol=1e-6, atol=1e-7)
