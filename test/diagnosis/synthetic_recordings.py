@@ -15,8 +15,7 @@ from reference_models import pinocchio_from_arm
 
 from baxter_dynamics_ros.core.arm_model import ArmModel
 from baxter_dynamics_ros.core.recording import Recording
-from baxter_dynamics_ros.diagnosis.statistics import Block, column_layout, prepare, recording_blocks
-from baxter_dynamics_ros.diagnosis.statistics import active_columns
+from baxter_dynamics_ros.diagnosis.statistics import Block, active_columns, column_layout, prepare, recording_blocks
 
 N = 7
 EFFORT_QUANTUM_NM = 0.004

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from recorded_bags import BAG_KINDS, bag_path, joint_states, message, write_bag
+from recorded_bags import BAG_KINDS, BAXTER_JOINTS, bag_path, joint_states, message, write_bag
 
 from msg_adapters.bag_io import read_bag_recording
 from msg_adapters.recording_files import read_recording
@@ -27,16 +27,10 @@ def _bag_with_late_receipt(tmp_path: Path, kind: str, n: int = 300) -> tuple[Pat
     receive = stamps + np.sort(rng.integers(3_000_000, 8_000_000, n))  # still increasing
     receive = np.maximum.accumulate(receive + np.arange(n))
     msgs = [
-        (int(r), message(kind, int(s), _names(), p, v, e))
+        (int(r), message(kind, int(s), BAXTER_JOINTS, p, v, e))
         for s, r, p, v, e in zip(stamps, receive, states["position"], states["velocity"], states["effort"])
     ]
     return write_bag(bag_path(tmp_path, kind), kind, {TOPIC: msgs}), stamps, receive
-
-
-def _names() -> tuple[str, ...]:
-    from recorded_bags import BAXTER_JOINTS
-
-    return tuple(BAXTER_JOINTS)
 
 
 @pytest.mark.parametrize("kind", BAG_KINDS)
