@@ -99,3 +99,22 @@ def test_out_with_missing_parents_leaves_nothing_when_the_command_fails(table: P
     short = _rewritten(table, tmp_path / "short.csv", lambda header, rows: (header, rows[::150][:3]))
     the_error(run_cli("process", short, "--arm", "right", "--out", tmp_path / "a" / "b" / "o.csv"))
     assert listing(tmp_path) == ["short.csv"]
+
+
+@pytest.mark.parametrize("delay_s", [0.1, 0.15, 0.2, 0.3, 0.6, 1.5])
+def test_ctrl_c_at_any_time_is_one_line_and_exit_130(table: Path, tmp_path: Path, delay_s: float) -> None:
+    """From 0.1 s on: before that the interpreter is still importing the environment's .pth files (site),
+    before any of the package's code can install its handler."""
+    import signal
+    import time
+
+    command = [sys.executable, "-m", "baxter_dynamics_ros.cli", "process", str(table), "--arm", "right", "--out", str(tmp_path / "a" / "o.mcap")]
+    child = subprocess.Popen(command, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(delay_s)
+    child.send_signal(signal.SIGINT)
+    _, stderr = child.communicate(timeout=120)
+    if child.returncode == 0:  # finished before the signal: nothing to check but a clean run
+        return
+    assert "Traceback" not in stderr, stderr
+    assert child.returncode == 130 and stderr.strip().splitlines()[-1] == "ERROR: interrupted", stderr
+    assert listing(tmp_path) == []
