@@ -47,8 +47,17 @@ Note = Callable[[str], None]  # takes a one-line message for the user
 LAYOUTS = {"baxter export": ("ang_", "vel_", "torq_"), "generic": ("position_", "velocity_", "effort_")}
 
 
+def _refuse_duplicates(path: Path, names: Sequence[str]) -> None:
+    """Refuses a header naming a column twice (which of the two holds the data cannot be known)."""
+    seen: set[str] = set()
+    twice = sorted({n for n in names if n in seen or seen.add(n)})
+    if twice:
+        raise RecordingFileError(f"{path}: column {', '.join(twice)} appears more than once in the header; keep one")
+
+
 def _read_columns(path: Path) -> dict[str, np.ndarray]:
-    """Every column of a CSV (comma or whitespace separated) or Parquet file, by header name."""
+    """Every column of a CSV (comma or whitespace separated) or Parquet file, by header name; a
+    name given twice is refused."""
     if not path.is_file():
         raise RecordingFileError(f"{path}: no such file")
     if path.suffix == ".parquet":
@@ -58,6 +67,7 @@ def _read_columns(path: Path) -> dict[str, np.ndarray]:
             table = pq.read_table(path)
         except Exception as err:  # noqa: BLE001 - pyarrow's errors all mean "not a readable Parquet file"
             raise RecordingFileError(f"{path}: cannot read the Parquet file ({err})") from err
+        _refuse_duplicates(path, table.column_names)
         columns = {}
         for name in table.column_names:
             values = table.column(name).to_numpy(zero_copy_only=False)
@@ -82,6 +92,7 @@ def _read_columns(path: Path) -> dict[str, np.ndarray]:
         raise RecordingFileError(f"{path}: no data rows under the header line")
     delimiter = "," if "," in lines[0] else None
     names = [n.strip() for n in lines[0].split(delimiter)]
+    _refuse_duplicates(path, names)
     try:
         values = np.loadtxt(rows, delimiter=delimiter, ndmin=2, dtype=np.float64, comments=None)
         stamps = (

@@ -5,15 +5,39 @@ its one-line help sits in :data:`COMMANDS`. Modules are imported only when their
 fast and ``process`` never imports rclpy. To add a command, add one entry to :data:`COMMANDS`.
 
 Errors of this package (:class:`~baxter_dynamics_ros.errors.BaxterDynamicsError`) are caught here,
-at the edge, and printed as one ``ERROR: ...`` line on stderr with exit status 1.
+at the edge, and printed as one ``ERROR: ...`` line on stderr with exit status 1. Ctrl-C (SIGINT)
+at any time prints one ``ERROR: interrupted`` line and exits 130, without a traceback: before the
+command runs (parsing, imports) the process ends at once, nothing having been written; while it
+runs, KeyboardInterrupt unwinds it so that its staged outputs are removed, further Ctrl-C being
+ignored meanwhile.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import os
+import signal
 import sys
 from collections.abc import Sequence
+from types import FrameType
+
+#: Whether a command is running (Ctrl-C unwinds it) rather than starting (Ctrl-C ends the process).
+_running = False
+_INTERRUPTED = 130
+
+
+def _on_interrupt(signum: int, frame: FrameType | None) -> None:
+    """SIGINT: one line and exit 130 before a command runs; KeyboardInterrupt, once, while it runs."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C does not interrupt the cleanup
+    if not _running:
+        os.write(2, b"ERROR: interrupted\n")
+        os._exit(_INTERRUPTED)
+    raise KeyboardInterrupt
+
+
+if __name__ != "__mp_main__":  # not in a worker process started by spawn
+    signal.signal(signal.SIGINT, _on_interrupt)
 
 from ..errors import BaxterDynamicsError
 
@@ -65,15 +89,21 @@ def _parser(argv: Sequence[str]) -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``baxter-dynamics`` with argv (default: sys.argv[1:]); returns the exit status."""
+    global _running
     argv = list(sys.argv[1:] if argv is None else argv)
     args = _parser(argv).parse_args(argv)
     module = importlib.import_module(COMMANDS[args.command][0])
     try:
+        _running = True
         return int(module.run(args))
     except BaxterDynamicsError as err:
         print(f"ERROR: {err}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
+    except KeyboardInterrupt:  # the command has unwound (its staged outputs removed): end here, exit 130
         print("ERROR: interrupted", file=sys.stderr)
-        return 130
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(_INTERRUPTED)  # not a return: a library that saw the interrupt could still turn the exit into -SIGINT
+    finally:
+        _running = False
 

@@ -4,8 +4,8 @@ Reads joint states from a bag (ROS 1 ``.bag``, ROS 2 directory, ``.mcap``, ``.db
 (``.csv``, ``.txt``, ``.parquet``), estimates q̈, computes gravity, inverse dynamics and residual,
 and writes them where ``--out`` says: a ``.mcap`` ROS 2 bag with the live node's topics, a ``.csv``
 or ``.parquet`` table. INPUT may also be several files, a folder of recordings or a quoted pattern
-(:mod:`~baxter_dynamics_ros.cli.inputs`); when it stands for more than one recording, ``--out`` is a
-folder that gets ``<name>.<--format>`` for each, the files processed in ``--jobs`` worker processes
+(:mod:`~baxter_dynamics_ros.cli.inputs`); when it is more than one file, a folder or a pattern (even
+one holding a single recording), ``--out`` is a folder that gets ``<name>.<--format>`` for each, the files processed in ``--jobs`` worker processes
 and the outputs moved into place together once all are written (none if one fails). Never imports
 rclpy.
 """
@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
 
-from ..errors import OutputError
+from ..errors import OutputError, RecordingError, RecordingFileError
 from .inputs import expand_inputs
 from .paths import check_paths
 from .workers import add_worker_arguments, file_mapper
@@ -71,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
 
     inputs = expand_inputs(args.input)
     options = _Options(args.model, args.topic, args.arm, args.rate_hz, args.acceleration, args.cutoff_hz, args.force)
-    if len(inputs) == 1:
+    if list(args.input) == inputs and len(inputs) == 1:  # one file given: --out is the output file
         check_paths(inputs, [args.out])
         check_output(args.out, replace=args.force)  # before reading: fail fast
         show = sys.stderr.isatty() if args.progress is None else args.progress
@@ -117,7 +117,10 @@ def _process_one(options: _Options, job: tuple[Path, Path], show: bool = False) 
     finally:
         reading.close()
     arm = load_arm_model(options.model if options.model is not None else recording.side)
-    processed = process_recording(arm, recording, acceleration=options.acceleration, cutoff_hz=options.cutoff_hz)
+    try:
+        processed = process_recording(arm, recording, acceleration=options.acceleration, cutoff_hz=options.cutoff_hz)
+    except RecordingError as err:
+        raise RecordingFileError(f"{source}: {err}") from err
     write_processed(out, processed, input_topic=options.topic, replace=options.force)
     return (
         f"{len(recording)} samples of the {recording.side} arm "

@@ -6,8 +6,9 @@ replacing), a folder the user may not write. :func:`staged_outputs` then hands o
 a temporary folder beside the targets (``.<name>.*.partial``, one per target folder, on the same
 filesystem) and, when the block succeeds, moves them all into place; if the block, or one of the
 moves, fails, the files already moved are taken back (replaced ones restored) and nothing new is
-left. A folder of outputs that does not exist yet (``diagnose --out DIR``) is staged whole and
-renamed into place in one step.
+left. A folder of outputs that does not exist yet (``diagnose --out DIR``), with any of its parents
+that do not exist either (as ``mkdir -p`` would make them), is staged whole and renamed into place
+in one step.
 
 Every OSError on the way (no permission, no space, a read-only filesystem) becomes one
 :class:`~baxter_dynamics_ros.errors.OutputError` naming the path.
@@ -35,9 +36,21 @@ def _by_folder(targets: Sequence[Path]) -> dict[Path, list[Path]]:
     return groups
 
 
+def _first_missing(folder: Path) -> Path | None:
+    """The outermost of ``folder`` and its parents that does not exist (None if ``folder`` exists)."""
+    if folder.exists():
+        return None
+    top = folder
+    while not top.parent.exists() and top.parent != top:
+        top = top.parent
+    return top
+
+
 def _staging_folder(folder: Path) -> Path:
-    """A new temporary folder beside ``folder``'s contents (inside it, or beside it when it is to be made)."""
-    where = folder if folder.is_dir() else folder.parent
+    """A new temporary folder beside ``folder``'s contents (inside it, or beside the outermost
+    missing folder of its path when that is to be made)."""
+    top = _first_missing(folder)
+    where = folder if top is None else top.parent
     try:
         return Path(tempfile.mkdtemp(prefix=f".{folder.name}.", suffix=".partial", dir=where))
     except OSError as err:
@@ -47,16 +60,17 @@ def _staging_folder(folder: Path) -> Path:
 def check_outputs(targets: Sequence[str | os.PathLike[str]], *, replace: bool = False, option: str = "--out") -> None:
     """Refuse outputs that could not be written whole (module docstring); nothing is left behind.
 
-    targets: the files to write; their folders may be missing if the folders' parents exist (they
-    are then created); replace: whether existing target files may be replaced (``--force``);
+    targets: the files to write; their folders and the folders' parents may be missing (they are
+    then created, as ``mkdir -p`` would); replace: whether existing target files may be replaced (``--force``);
     option: the command-line option naming the output, for the messages.
     """
     paths = [Path(t) for t in targets]
     for folder, files in _by_folder(paths).items():
         if folder.exists() and not folder.is_dir():
             raise OutputError(f"{folder}: is a file, not a folder; choose another {option}")
-        if not folder.exists() and not folder.parent.is_dir():
-            raise OutputError(f"{folder}: the folder {folder.parent} does not exist")
+        top = _first_missing(folder)
+        if top is not None and not top.parent.is_dir():
+            raise OutputError(f"{folder}: {top.parent} is a file, not a folder; choose another {option}")
         for path in files:
             if path.is_dir():
                 raise OutputError(f"{path}: is a folder; not replacing it, choose another {option}")
@@ -81,8 +95,9 @@ def staged_outputs(targets: Sequence[str | os.PathLike[str]]) -> Iterator[list[P
         where: dict[Path, Path] = {}  # target -> staged path
         for folder, files in _by_folder(paths).items():
             stagings[folder] = staging = _staging_folder(folder)
-            inner = staging if folder.exists() else staging / folder.name
-            inner.mkdir(exist_ok=True)
+            top = _first_missing(folder)
+            inner = staging if top is None else staging / folder.relative_to(top.parent)
+            inner.mkdir(parents=True, exist_ok=True)
             where.update({target: inner / target.name for target in files})
         try:
             yield [where[p] for p in paths]
@@ -105,9 +120,11 @@ def _commit(stagings: dict[Path, Path], where: dict[Path, Path]) -> None:
     undo: list[tuple[Path, Path | None]] = []  # (what was put in place, where its predecessor went)
     try:
         for folder, staging in stagings.items():
-            if (staging / folder.name).is_dir() and not folder.exists():
-                os.rename(staging / folder.name, folder)
-                undo.append((folder, staging / folder.name))  # undone by renaming the folder back
+            top = _first_missing(folder)
+            if top is not None:  # made whole: the outermost missing folder renamed into place
+                made = staging / top.name  # staging was made in top's parent, mirroring it
+                os.rename(made, top)
+                undo.append((top, made))  # undone by renaming the folder back
                 continue
             for k, (target, new) in enumerate((t, n) for t, n in where.items() if t.parent == folder):
                 old = None

@@ -41,7 +41,10 @@ def estimate_acceleration(recording: Recording, method: str = "zero_phase", cuto
             return zero_phase_acceleration(recording.qd, recording.rate_hz, cutoff_hz)
         return LowPassDifferentiator(cutoff_hz).run(recording.qd, recording.stamps_s)
     except ValueError as err:  # the estimators' own checks (cutoff range)
-        raise RecordingError(f"cannot estimate q̈ by {method} on this recording: {err}") from err
+        raise RecordingError(
+            f"cannot estimate q̈ by {method} on this recording ({len(recording)} samples at {recording.rate_hz:.3g} Hz): {err}; "
+            "give a longer recording at a higher rate, or a lower --cutoff-hz"
+        ) from err
 
 
 def process_recording(

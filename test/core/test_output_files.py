@@ -62,7 +62,7 @@ def test_check_outputs_refuses_what_could_not_be_written_whole(tmp_path: Path) -
     (tmp_path / "old.csv").write_text("x")
     cases = [
         ([tmp_path / "file" / "a.json"], f"{tmp_path / 'file'}: is a file, not a folder; choose another --out"),
-        ([tmp_path / "no" / "such" / "a.json"], f"{tmp_path / 'no' / 'such'}: the folder {tmp_path / 'no'} does not exist"),
+        ([tmp_path / "file" / "x" / "a.json"], f"{tmp_path / 'file' / 'x'}: {tmp_path / 'file'} is a file, not a folder; choose another --out"),
         ([tmp_path / "dir.csv"], f"{tmp_path / 'dir.csv'}: is a folder; not replacing it, choose another --out"),
         ([tmp_path / "old.csv"], f"{tmp_path / 'old.csv'}: exists already; choose another --out or pass --force"),
         ([tmp_path / "old.csv", tmp_path / "new.csv"], f"{tmp_path}: holds earlier outputs (old.csv); choose another --out or pass --force"),
@@ -73,6 +73,7 @@ def test_check_outputs_refuses_what_could_not_be_written_whole(tmp_path: Path) -
         assert str(refused.value) == message
     check_outputs([tmp_path / "old.csv"], replace=True)
     check_outputs([tmp_path / "new" / "a.json"])
+    check_outputs([tmp_path / "no" / "such" / "a.json"])  # parents made as mkdir -p would
     assert listing(tmp_path) == ["dir.csv", "file", "old.csv"]
 
 
