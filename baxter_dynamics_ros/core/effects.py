@@ -62,6 +62,7 @@ __all__ = [
     "Payload",
     "S1Spring",
     "StribeckFriction",
+    "TorqueGain",
     "TorqueOffset",
     "ViscousFriction",
     "friction_law",
@@ -557,6 +558,39 @@ class Delay(Effect):
 
 
 @dataclass(frozen=True, eq=False)
+class TorqueGain(Effect):
+    """Each joint's torque sensor reads (1 + gain_j) times the torque, gain (7,) dimensionless:
+    recorded effort_j = (1 + g_j)·effort_j.
+
+    A series-elastic actuator (Baxter's) measures its torque as its spring's deflection times the
+    stiffness it was calibrated with; an error of that stiffness is a gain on everything the joint
+    transmits — inertial, Coriolis and gravity torque alike — unlike a change of the arm's inertia,
+    which moves them by different factors. Share, to first order in g: g_j·τ_rigid,j; regressor
+    τ_rigid,j on joint j. In the simulator the recorded effort is scaled exactly. Where a joint's
+    torque is mostly gravity (s1, e1), a gain is close to a change of the links' masses, which only
+    motion with large inertial torques tells apart; elsewhere a gain at one joint changes that
+    joint's torque alone, a change of a link's inertia the torque of every joint that carries it.
+    """
+
+    name: ClassVar[str] = "torque_gain"
+    measurement: ClassVar[bool] = True
+    gain: np.ndarray = _param("joint", minimum=-1.0, strict=True)
+
+    def torque(self, arm, q, qd, qdd, *, stamps_s=None):
+        return self.gain * arm.inverse_dynamics(q, qd, qdd)
+
+    def regressor(self, arm, q, qd, qdd, *, stamps_s=None):
+        (q2, qd2, qdd2), lead = _batch(q, qd, qdd)
+        return _diagonal(arm.inverse_dynamics(q2, qd2, qdd2)).reshape(lead + (N, N))
+
+    def parameter_vector(self, arm):
+        return self.gain.copy()
+
+    def parameter_names(self):
+        return _joint_labels("gain")
+
+
+@dataclass(frozen=True, eq=False)
 class AccelerationNoise(Effect):
     """Noise of the measured q̇, seen through the differentiated q̈.
 
@@ -600,6 +634,7 @@ EFFECTS: dict[str, type[Effect]] = {
         InertialError,
         Armature,
         Delay,
+        TorqueGain,
         AccelerationNoise,
     )
 }

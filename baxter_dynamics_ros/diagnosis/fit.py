@@ -78,6 +78,12 @@ AT_BOUND = 1e-9
 MAX_OFFSET_DRIFT_NM = 0.5
 
 
+#: Per-joint effects the s1 spring spans at s1: its preload is an offset, and its cosine and sine
+#: carry the shape of s1's gravity load, which a torque gain scales. With the spring in a model
+#: neither acts at s1 (on the other unit's recordings a gain at s1 took the spring's share over one
+#: range of s1 and missed a square's range by 2 N·m more).
+SPANNED_BY_SPRING = frozenset({"torque_offset", "torque_gain"})
+
 @dataclass(frozen=True, order=True)
 class Term:
     """A candidate (index into the layout) and the joints it acts on (per-joint kinds; else all it touches)."""
@@ -158,13 +164,13 @@ class Fitter:
 
     # -- columns
     def term_columns(self, model: Model) -> list[np.ndarray]:
-        """Each term's columns in the model (a spring takes the place of s1's offset)."""
+        """Each term's columns in the model (a spring takes the place of s1's offset and gain)."""
         spring = any(self.layout.candidates[t.candidate].name == "s1_spring" for t in model.terms)
         out = []
         for t in model.terms:
             cand = self.layout.candidates[t.candidate]
             if cand.kind == "joint":
-                joints = [j for j in t.joints if not (spring and cand.name == "torque_offset" and j == S1)]
+                joints = [j for j in t.joints if not (spring and cand.name in SPANNED_BY_SPRING and j == S1)]
                 out.append(cand.joint_columns(joints))
             else:
                 out.append(np.asarray(cand.columns, dtype=int))

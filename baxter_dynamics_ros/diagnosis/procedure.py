@@ -48,6 +48,7 @@ from ..core.effects import (
     Payload,
     S1Spring,
     StribeckFriction,
+    TorqueGain,
     TorqueOffset,
     ViscousFriction,
 )
@@ -58,7 +59,7 @@ from ..errors import DiagnosisError, RecordingError
 from .fit import MAX_OFFSET_DRIFT_NM, Fit, Fitter, Model, Term
 from .gap_analysis import GapSummary, gap_summary, quantile_edges, wanted_bins
 from .passes import Reduction, Screening, TestFigures, reduce, screen, test_figures
-from .selection import FAMILY_OF, MIN_JOINT_GAIN, MIN_JOINT_GAIN_NM, Evaluation, select
+from .selection import FAMILY_OF, MIN_JOINT_GAIN, MIN_JOINT_GAIN_NM, Evaluation, Rivalry, rivalries, select
 from .sources import InMemory, Mapper, Source, serial_map
 from .statistics import Block, Candidate, ColumnLayout, Pool, active_columns, choose_cutoff, column_layout
 
@@ -119,6 +120,8 @@ class EffectReport:
     share: float = 0.0
     params_fold_spread: dict[str, float] = field(default_factory=dict)
     alternative_folds: dict[str, int] = field(default_factory=dict)
+    #: the effects the training data cannot tell from this one (:class:`~.selection.Rivalry`)
+    not_distinguishable_from: tuple[str, ...] = ()
 
     @property
     def uncertain_joints(self) -> tuple[str, ...]:
@@ -175,6 +178,9 @@ class DiagnosisResult:
         offset = next((e for e in self.selected() if e.drift and e.drift["held_common"]), None)
         if offset is not None:
             out.append("Torque offsets: " + _hidden_torque(offset.drift["held_common"]) + ".")
+        for e in self.selected():
+            if e.not_distinguishable_from:
+                out.append(f"{e.name} is not distinguishable on this data from {', '.join(e.not_distinguishable_from)} (see its reason).")
         uncertain = [e.name for e in self.selected() if e.uncertain]
         if uncertain:
             out.append(
@@ -223,6 +229,7 @@ class DiagnosisResult:
                     "joint_folds": e.joint_folds,
                     "uncertain_joints": list(e.uncertain_joints),
                     "alternative_folds": e.alternative_folds,
+                    "not_distinguishable_from": list(e.not_distinguishable_from),
                     "test_rms_before": rms(e.test_rms_before),
                     "test_rms_after": rms(e.test_rms_after),
                     "test_verdict": e.test_verdict,
@@ -265,6 +272,8 @@ def _effect_of(cand: Candidate, values: np.ndarray, phi: np.ndarray | None) -> E
         return Armature(inertia_kgm2=values)
     if isinstance(t, Delay):
         return Delay(delay_s=values)
+    if isinstance(t, TorqueGain):
+        return TorqueGain(gain=values)
     if isinstance(t, S1Spring):
         return S1Spring(preload_nm=values[0], linear_nm_rad=values[1], cosine_nm=values[2], sine_nm=values[3])
     if isinstance(t, Payload):
@@ -415,9 +424,10 @@ def diagnose(
     fold_models = mapper(partial(_fold_model, arm, layout), pool.fold_blocks())
     step()
 
-    reports = _selected_reports(ctx, selection.evaluation, fold_models)
+    rivals = rivalries(arm, layout, pool, selection.evaluation, ctx.fitter)
+    reports = _selected_reports(ctx, selection.evaluation, fold_models, rivals)
     reports.append(_noise_report(ctx, cutoff))
-    reports += _unselected_reports(ctx, selection.evaluation, {r.name for r in reports if r.selected})
+    reports += _unselected_reports(ctx, selection.evaluation, {r.name for r in reports if r.selected}, rivals)
     reports = _cumulative(ctx, final, reports)
     ordered = sorted(reports, key=lambda e: (not e.selected, -(e.share if e.selected else e.cv_gain)))
     ranked = tuple(replace(e, rank=i + 1) for i, e in enumerate(ordered))
@@ -486,8 +496,8 @@ def _spread(fit: Fit, folds: list[Fit], positions: np.ndarray) -> np.ndarray:
     return np.sqrt(np.diag(fit.cov_x)[positions] + _fold_spread(folds, positions) ** 2)
 
 
-def _selected_reports(ctx: _Context, ev: Evaluation, fold_models: list[Model]) -> list[EffectReport]:
-    """Reports of the selected effects: parameters, drop-one gains, stability, verdict, drift."""
+def _selected_reports(ctx: _Context, ev: Evaluation, fold_models: list[Model], rivals: list[Rivalry]) -> list[EffectReport]:
+    """Reports of the selected effects: parameters, drop-one gains, stability, verdict, drift, rivals."""
     final = ev.model
     n = ctx.pool.samples
     out = []
@@ -536,11 +546,15 @@ def _selected_reports(ctx: _Context, ev: Evaluation, fold_models: list[Model]) -
             reason += f"; drifts between recordings at {_short(drift['drifting'])} (see drift)"
         if drift is not None and drift["held_common"]:
             reason += "; " + _hidden_torque(drift["held_common"])
+        mine = [r for r in rivals if r.selected == cand.name]
+        for r in mine:
+            reason += "; " + r.sentence(cand.name)
         out.append(
             EffectReport(
                 cand.name, cand.variant, True, 0, reason, params, params_std, joints, gain, final_test, final_test, effect,
                 folds_selected=folds_selected, folds=len(fold_models), joint_folds=joint_folds, test_verdict=verdict,
                 drift=drift, inertial=inertial, params_fold_spread=params_fold_spread, alternative_folds=alternatives,
+                not_distinguishable_from=tuple(r.rival for r in mine),
             )  # fmt: skip
         )
     return out
@@ -669,8 +683,9 @@ def _gain_ok(before: np.ndarray, after: np.ndarray, n: int) -> np.ndarray:
     return (rel >= MIN_JOINT_GAIN) & (_rms(before, n) - _rms(after, n) >= MIN_JOINT_GAIN_NM)
 
 
-def _unselected_reports(ctx: _Context, ev: Evaluation, selected_names: set[str]) -> list[EffectReport]:
-    """Every candidate not selected: what adding it (its best variant) to the selected set would do."""
+def _unselected_reports(ctx: _Context, ev: Evaluation, selected_names: set[str], rivals: list[Rivalry]) -> list[EffectReport]:
+    """Every candidate not selected: what adding it (its best variant) to the selected set would do,
+    or, for a rival the data cannot tell from a selected effect, that."""
     from .selection import explain_unselected
 
     out = []
@@ -679,12 +694,16 @@ def _unselected_reports(ctx: _Context, ev: Evaluation, selected_names: set[str])
     for name, (variant, trial, why) in explain_unselected(ctx.arm, ctx.layout, ctx.pool, ev, ctx.fitter).items():
         if name in selected_names:
             continue
+        rivalry = next((r for r in rivals if r.rival == name), None)
+        tie = (rivalry.selected,) if rivalry is not None else ()
+        if rivalry is not None:
+            why = rivalry.sentence(name) + f"; the selection keeps {rivalry.selected}"
         if trial is None:
-            out.append(EffectReport(name, variant, False, 0, why, {}, {}, (), 0.0, final_test, final_test))
+            out.append(EffectReport(name, variant, False, 0, why, {}, {}, (), 0.0, final_test, final_test, not_distinguishable_from=tie))
             continue
         gain = float(np.sum(ev.cv - trial.cv)) / n
         after = ctx.test_rms(trial.model)
-        out.append(EffectReport(name, variant, False, 0, why, {}, {}, (), gain, final_test, after))
+        out.append(EffectReport(name, variant, False, 0, why, {}, {}, (), gain, final_test, after, not_distinguishable_from=tie))
     return out
 
 

@@ -19,9 +19,13 @@ Moves, each accepted only if it lowers S (all compared under the same weights):
   ``MIN_JOINT_GAIN`` and ``MIN_JOINT_GAIN_NM``, and whose parameters differ from zero by more than
   their uncertainty;
 - after each addition, **remove** a selected effect, or one joint of a per-joint effect, and
-  **replace** an effect by the other member of its family (``payload`` ⇄ ``inertial_error``,
-  ``coulomb_friction`` ⇄ ``stribeck_friction`` at the same joints, any variant), until no such move
-  lowers S. A family member never enters beside another at the same joint.
+  **replace** an effect by its rival (``RIVALS``: ``payload`` ⇄ ``inertial_error``,
+  ``coulomb_friction`` ⇄ ``stribeck_friction`` at the same joints, any variant; ``s1_spring`` ⇄ the
+  offset at s1), until no such move lowers S; the richer of two rivals must win by the folds'
+  uncertainty. A family member never enters beside another at the same joint.
+
+Rivals that the training data cannot tell apart (the swap changes S by less than that
+uncertainty) are reported, with the motion that would separate them (:func:`rivalries`).
 
 A term whose parameters are zero (at a bound) or within their uncertainty of zero at every joint
 is never kept: the test is a Wald test at 95 % against the covariance of the fit (with effective
@@ -40,10 +44,10 @@ from scipy.stats import chi2
 from ..core.arm_model import ArmModel
 from ..core.joints import JOINTS as N
 from ..core.joints import S1
-from .fit import DECORRELATION_S, Fit, Fitter, Model, Term
+from .fit import DECORRELATION_S, SPANNED_BY_SPRING, Fit, Fitter, Model, Term
 from .statistics import ColumnLayout, Pool
 
-__all__ = ["FAMILY_OF", "Evaluation", "Selection", "explain_unselected", "select"]
+__all__ = ["FAMILY_OF", "Evaluation", "Rivalry", "Selection", "explain_unselected", "rivalries", "select"]
 
 #: A kept term must cut some joint's held-out squared error by this fraction and its held-out RMS
 #: by MIN_JOINT_GAIN_NM (the effort's quantisation is 0.004 N·m).
@@ -57,6 +61,12 @@ SIGMA2_FLOOR = 1e-6
 FAMILIES = ({"payload", "inertial_error"}, {"coulomb_friction", "stribeck_friction"})
 #: Each family member's alternatives.
 FAMILY_OF = {name: family - {name} for family in FAMILIES for name in family}
+#: Effects that can explain the same torque on some data, and the motion that tells them apart.
+RIVALS: dict[frozenset[str], str] = {
+    frozenset({"payload", "inertial_error"}): "motion that loads the inner links in other ways than the hand does (each joint over its range, with accelerations)",
+    frozenset({"coulomb_friction", "stribeck_friction"}): "slow motion through velocity reversals, below the Stribeck velocities",
+    frozenset({"s1_spring", "torque_offset"}): "motion that spans s1's range (the spring's torque changes with q_s1, an offset's does not)",
+}
 MAX_MOVES = 60
 #: A move must lower the score by this much (half of one parameter's penalty), so that the search
 #: does not swap between alternatives that explain the data equally well.
@@ -88,6 +98,29 @@ class Selection:
     moves: tuple[str, ...]
 
 
+@dataclass(frozen=True)
+class Rivalry:
+    """A selected effect and an unselected one the training data cannot tell from it.
+
+    change: the score of the set with the rival in the selected one's place, minus the selected
+    set's; margin: the folds' uncertainty of that difference (``_Search.margin``), ≥ |change|."""
+
+    selected: str  # the selected effect's name
+    rival: str  # the rival's name
+    rival_label: str  # its best variant's label
+    change: float
+    margin: float
+    separated_by: str  # the motion that would tell them apart
+
+    def sentence(self, of: str) -> str:
+        """Why ``of`` (either name) and the other are not told apart, in one clause."""
+        other = self.rival_label if of == self.selected else self.selected
+        return (
+            f"not distinguishable on this data from {other} (with {self.rival_label} in {self.selected}'s place the score changes by "
+            f"{self.change:+.3g}, within the folds' uncertainty of {self.margin:.3g}): {self.separated_by} would separate them"
+        )
+
+
 def _family(name: str) -> set[str]:
     return FAMILY_OF.get(name, set()) | {name}
 
@@ -103,11 +136,14 @@ class _Search:
 
     # -- evaluation
     def canonical(self, model: Model) -> Model:
-        """With the s1 spring in a model, s1 has no offset of its own (the spring's preload is it)."""
+        """With the s1 spring in a model, s1 has no offset or gain of its own (the spring spans them)."""
         names = {self.layout.candidates[t.candidate].name: t for t in model.terms}
-        offset = names.get("torque_offset")
-        if "s1_spring" in names and offset is not None and S1 in offset.joints:
-            return model.with_term(Term(offset.candidate, tuple(j for j in offset.joints if j != S1)))
+        if "s1_spring" not in names:
+            return model
+        for name in SPANNED_BY_SPRING:
+            t = names.get(name)
+            if t is not None and S1 in t.joints:
+                model = model.with_term(Term(t.candidate, tuple(j for j in t.joints if j != S1)))
         return model
 
     def reweight(self, model: Model) -> Evaluation:
@@ -208,7 +244,7 @@ class _Search:
         """Joints where another member of the candidate's family (or another variant) already acts."""
         cand = self.layout.candidates[candidate]
         out: set[int] = set()
-        if cand.name == "torque_offset" and any(self.layout.candidates[t.candidate].name == "s1_spring" for t in model.terms):
+        if cand.name in SPANNED_BY_SPRING and any(self.layout.candidates[t.candidate].name == "s1_spring" for t in model.terms):
             out.add(S1)
         for t in model.terms:
             other = self.layout.candidates[t.candidate]
@@ -301,18 +337,31 @@ class _Search:
                     yield f"remove {cand.label} at {self._joint_names([j])}", self.evaluate(model.with_term(Term(t.candidate, tuple(k for k in t.joints if k != j))))
             present = {self.layout.candidates[s.candidate].name: s.candidate for s in model.terms}
             for index, other in enumerate(self.layout.candidates):
-                if other.name == cand.name or other.name not in _family(cand.name):
+                if frozenset({cand.name, other.name}) not in RIVALS:
                     continue
                 if present.get(other.name, index) != index:
                     continue  # that effect is in the model with another variant
-                if other.kind == "joint":
-                    joints = tuple(j for j in t.joints if j not in self.blocked_joints(model.without(t.candidate), index))
-                else:
-                    joints = self._touched(index)
-                if not joints:
+                swapped = self.in_place_of(model, t, index)
+                if swapped is None:
                     continue
-                swapped = Model.of([s for s in model.terms if s.candidate != t.candidate] + [Term(index, joints)])
                 yield f"replace {cand.label} by {other.label}", self.evaluate(swapped)
+
+    def in_place_of(self, model: Model, term: Term, index: int) -> Model | None:
+        """The model with candidate ``index`` in the place of ``term``: a family member at the
+        term's joints (or all it touches), the spring in place of s1's offset and back; None where
+        it cannot act."""
+        cand, other = self.layout.candidates[term.candidate], self.layout.candidates[index]
+        offset = next((t for t in model.terms if self.layout.candidates[t.candidate].name == "torque_offset"), None)
+        if other.name == "s1_spring":  # the offset at s1 gives way to the spring's preload
+            return model.with_term(Term(index, self._touched(index))) if cand.name == "torque_offset" and S1 in term.joints else None
+        if cand.name == "s1_spring":  # the spring gives way to an offset at s1
+            joints = tuple(sorted(set(offset.joints if offset else ()) | {S1}))
+            return model.without(term.candidate).with_term(Term(index, joints))
+        if other.kind == "joint":
+            joints = tuple(j for j in term.joints if j not in self.blocked_joints(model.without(term.candidate), index))
+        else:
+            joints = self._touched(index)
+        return Model.of([s for s in model.terms if s.candidate != term.candidate] + [Term(index, joints)]) if joints else None
 
     def _touched(self, index: int) -> tuple[int, ...]:
         """The joints a whole-effect candidate can act on."""
@@ -370,6 +419,33 @@ class _Search:
                 self.visited.add(current.model)
         current = self.prune(current)
         return Selection(current.model, current, self.fitter, tuple(self.moves))
+
+
+def rivalries(arm: ArmModel, layout: ColumnLayout, pool: Pool, final: Evaluation, fitter: Fitter) -> list[Rivalry]:
+    """Each selected effect's unselected rivals (``RIVALS``) that explain the training data as well:
+    put in its place (at its joints; the spring's rival, the offset, at s1) they change the score by
+    no more than the folds' uncertainty of the difference. The best variant of each rival is tried."""
+    search = _Search(arm, layout, pool)
+    search.fitter = fitter
+    names = {layout.candidates[t.candidate].name: t for t in final.model.terms}
+    out = []
+    for term in final.model.terms:
+        name = layout.candidates[term.candidate].name
+        for pair, separated_by in RIVALS.items():
+            if name not in pair:
+                continue
+            (rival,) = pair - {name}
+            if rival in names and not (rival == "torque_offset" and S1 not in names[rival].joints):
+                continue  # both selected: the data told them apart
+            trials = [search.evaluate(m) for index, c in enumerate(layout.candidates) if c.name == rival for m in [search.in_place_of(final.model, term, index)] if m is not None]
+            if not trials:
+                continue
+            best = min(trials, key=lambda ev: ev.score)
+            change, margin = best.score - final.score, search.margin(final, best)
+            if abs(change) <= margin:
+                index = next(t.candidate for t in best.model.terms if layout.candidates[t.candidate].name == rival)
+                out.append(Rivalry(name, rival, layout.candidates[index].label, change, margin, separated_by))
+    return out
 
 
 def select(arm: ArmModel, layout: ColumnLayout, pool: Pool) -> Selection:

@@ -30,6 +30,7 @@ from ..core.effects import (
     InertialError,
     S1Spring,
     StribeckFriction,
+    TorqueGain,
     TorqueOffset,
     ViscousFriction,
 )
@@ -118,6 +119,7 @@ def column_layout() -> ColumnLayout:
     specs.append(("inertial_error", "", "inertial", InertialError(), 70, free))
     specs.append(("armature", "", "joint", Armature(inertia_kgm2=0.0), 1, zero))
     specs.append(("delay", "", "joint", Delay(delay_s=0.0), 1, free))
+    specs.append(("torque_gain", "", "joint", TorqueGain(gain=0.0), 1, free))
     candidates, blocks, start = [], [], 0
     inertial_start = 0
     for name, variant, kind, template, p, low in specs:
@@ -143,12 +145,13 @@ def column_layout() -> ColumnLayout:
 # ----------------------------------------------------------------------------- one recording
 @dataclass(frozen=True)
 class Prepared:
-    """A recording's arrays in the denoised world: filtered q̈, rigid residuals, delay columns
-    (−dτ_rigid/dt with the same q̈, so that a fitted delay means what :class:`Delay` says)."""
+    """A recording's arrays in the denoised world: filtered q̈, rigid torques and residuals, delay
+    columns (−dτ_rigid/dt with the same q̈, so that a fitted delay means what :class:`Delay` says)."""
 
     q: np.ndarray  # (n, 7) rad
     qd: np.ndarray  # (n, 7) rad/s
     qdd: np.ndarray  # (n, 7) rad/s², zero-phase filtered
+    rigid_torque: np.ndarray  # (n, 7) N·m, τ_rigid with the filtered q̈ (the torque gain's columns)
     residual: np.ndarray  # (n, 7) N·m, effort − τ_rigid with the filtered q̈
     residual_raw: np.ndarray  # (n, 7) N·m, effort − τ_rigid with the first difference of q̇
     delay_columns: np.ndarray  # (n, 7) −dτ_rigid/dt, N·m/s
@@ -163,17 +166,16 @@ def prepare(arm: ArmModel, rec: Recording, cutoff_hz: float) -> Prepared:
     residual = rec.effort - tau
     delay_columns = np.gradient(tau, stamps, axis=0)
     np.negative(delay_columns, out=delay_columns)
-    del tau  # one (N, 7) temporary at a time: an hour-long recording's are 20 MB each
     residual_raw = rec.effort - arm.inverse_dynamics(rec.q, rec.qd, first_difference(rec.qd, stamps))
-    return Prepared(rec.q, rec.qd, qdd, residual, residual_raw, delay_columns, stamps)
+    return Prepared(rec.q, rec.qd, qdd, tau, residual, residual_raw, delay_columns, stamps)
 
 
 def _block_regressor(arm: ArmModel, template: Effect, width: int, p: Prepared, lo: int, hi: int) -> np.ndarray:
     """(hi − lo, 7, width) one column block of the layout on samples lo:hi (denoised world)."""
-    if isinstance(template, Delay):
+    if isinstance(template, (Delay, TorqueGain)):
         out = np.zeros((hi - lo, N, width))
         idx = np.arange(N)
-        out[:, idx, idx] = p.delay_columns[lo:hi]
+        out[:, idx, idx] = (p.delay_columns if isinstance(template, Delay) else p.rigid_torque)[lo:hi]
         return out
     return template.regressor(arm, p.q[lo:hi], p.qd[lo:hi], p.qdd[lo:hi])
 
@@ -217,7 +219,7 @@ def active_columns(arm: ArmModel, layout: ColumnLayout) -> list[np.ndarray]:
     rng = np.random.default_rng(0)
     q = rng.uniform(arm.lower_rad, arm.upper_rad, (32, N))
     qd, qdd = rng.uniform(-1, 1, (2, 32, N))
-    probe = Prepared(q, qd, qdd, qdd, qdd, np.ones((32, N)), np.arange(32) * 0.01)
+    probe = Prepared(q, qd, qdd, np.ones((32, N)), qdd, qdd, np.ones((32, N)), np.arange(32) * 0.01)
     phi = regressor(arm, layout, probe, 0, 32)
     return [np.flatnonzero(np.any(phi[:, j, :] != 0.0, axis=0)) for j in range(N)]
 

@@ -127,6 +127,8 @@ def single_effect(name: str, scale: float) -> dict[str, Any]:
         return {"inertia_kgm2": _joint([0.15, 0.15, 0.08, 0.08, 0.02, 0.02, 0.01], scale)}
     if name == "delay":
         return {"delay_s": 0.01 * scale}
+    if name == "torque_gain":
+        return {"gain": _joint([-0.08, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], scale)}
     if name == "acceleration_noise":
         return {"velocity_noise_rad_s": 0.015 * (1 if scale < 2 else 2)}
     raise KeyError(name)

@@ -3,7 +3,7 @@
 Recording, every 1 / rate_hz from t = 0 (what Baxter's ``/robot/joint_states`` holds): q quantised
 to ``position_step_rad`` (2π/16384); q̇ plus the white noise of ``acceleration_noise``; effort =
 τ_act (the transmitted torque: rigid body + every effect's share, the spring's negative) delayed by
-``delay`` (linear interpolation between steps), plus ``torque_offset``, plus white noise of
+``delay`` (linear interpolation between steps), times 1 + ``torque_gain``, plus ``torque_offset``, plus white noise of
 ``effort_noise_nm``, quantised to ``effort_step_nm`` (0.004 N·m). Noise comes from
 ``numpy.random.default_rng([seed, 1])``; the random trajectory from ``[seed, 0]``: same spec, same
 numbers, bit for bit.
@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from ..core.arm_model import ArmModel, load_arm_model
-from ..core.effects import AccelerationNoise, S1Spring, TorqueOffset
+from ..core.effects import AccelerationNoise, S1Spring, TorqueGain, TorqueOffset
 from ..core.joints import JOINTS as N
 from ..core.recording import Recording
 from .spec import SimulationSpec
@@ -126,7 +126,8 @@ def record(arm: ArmModel, spec: SimulationSpec, reference: JointReference, out: 
     noise = spec.effect(AccelerationNoise)
     qd = out["qd"] + (0.0 if noise is None else velocity_noise * noise.velocity_noise_rad_s)
     offset = spec.effect(TorqueOffset)
-    effort = out["tau_late"] + (0.0 if offset is None else offset.offset_nm) + effort_noise * spec.sensor.effort_noise_nm
+    gain = spec.effect(TorqueGain)
+    effort = out["tau_late"] * (1.0 if gain is None else 1.0 + gain.gain) + (0.0 if offset is None else offset.offset_nm) + effort_noise * spec.sensor.effort_noise_nm
     other_arm = load_arm_model("left" if spec.side == "right" else "right")
     other_q = _quantise(seed_posture(other_arm.side), spec.sensor.position_step_rad)
     other_hold = other_arm.gravity(other_q)

@@ -38,6 +38,7 @@ ALL = {
     "inertial_error": {"mass_scale": {"s1": 1.2, "e1": 0.9}, "com_scale": {"e0": 1.3}},
     "armature": {"inertia_kgm2": {"s0": 0.1, "w2": 0.01}},
     "delay": {"delay_s": 0.02},
+    "torque_gain": {"gain": {"s0": -0.05, "e1": 0.03}},
     "acceleration_noise": {"velocity_noise_rad_s": 0.01},
 }
 
@@ -66,7 +67,7 @@ def smooth_series(arm: ArmModel, n: int = 400, rate_hz: float = 100.0, noise_rad
 def test_the_library_has_exactly_the_diagnosis_names() -> None:
     assert list(EFFECTS) == [
         "torque_offset", "viscous_friction", "coulomb_friction", "stribeck_friction", "s1_spring",
-        "payload", "inertial_error", "armature", "delay", "acceleration_noise",
+        "payload", "inertial_error", "armature", "delay", "torque_gain", "acceleration_noise",
     ]  # fmt: skip
     assert [e.name for e in effects_from_dict(ALL)] == list(EFFECTS)
 
