@@ -25,7 +25,9 @@ and everything else is written here, plainly:
   noise level per joint, so that a joint's share does not depend on its scale); a move is taken
   only if it cuts S by at least −log 0.95, i.e. a per-joint effect must cut its joint's LORO mean
   squared error by ≥ 5 %. Joints are weighted 1/MSE_j of the current model (arm-wide columns are
-  shared by all joints). Then the selected model is fitted on all training recordings.
+  shared by all joints). Between nested alternatives (``coulomb_friction`` ⊂ ``stribeck_friction``,
+  ``payload`` ⊂ ``inertial_error``) the larger is taken only when it beats the smaller by that 5 %
+  too. Then the selected model is fitted on all training recordings.
 
 Everything is computed from sufficient statistics per recording and joint (H = ΦᵀΦ, g = Φᵀr, r·r,
 column sums, Σr, n), so a fit on any subset of recordings and columns is a small solve.
@@ -349,13 +351,22 @@ def select(train: Sequence[RecordingStats], *, min_gain: float = MIN_GAIN, max_s
     weights = 1.0 / mse
     steps: list[Step] = []
     for _ in range(max_steps):
-        best: tuple[float, str, Model, np.ndarray] | None = None
+        tried = []
         for label, candidate in _moves(model):
             m = loro_mse(train, candidate, weights)
-            gain = float(np.sum(np.log(mse) - np.log(m)))
-            if best is None or gain > best[0]:
-                best = (gain, label, candidate, m)
-        if best is None or best[0] < min_gain:
+            tried.append((float(np.sum(np.log(mse) - np.log(m))), label, candidate, m))
+        if not tried:
+            break
+        best = max(tried, key=lambda t: t[0])
+        # Parsimony between nested alternatives (coulomb ⊂ stribeck, payload ⊂ inertial_error): the
+        # larger is taken only if its extra columns pay the 5 % too, i.e. it beats the best nested
+        # smaller move by MIN_GAIN; otherwise that smaller one (the rest may be added at a later step).
+        added = set(best[2].columns) - set(model.columns)
+        smaller = [t for t in tried if t[2].offsets == best[2].offsets and set(t[2].columns) - set(model.columns) < added
+                   and t[0] > best[0] - min_gain]
+        if smaller:
+            best = max(smaller, key=lambda t: t[0])
+        if best[0] < min_gain:
             break
         _, label, model, mse = best
         weights = 1.0 / mse
