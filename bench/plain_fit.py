@@ -38,6 +38,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -193,6 +194,7 @@ class RecordingStats:
     s: np.ndarray
     rs: np.ndarray
 
+    @cached_property
     def centred(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(H, g, rr) with a free offset per joint profiled out (each column and r minus its mean)."""
         H = self.H - np.einsum("jp,jq->jpq", self.s, self.s) / self.n
@@ -282,7 +284,7 @@ def fit(train: Sequence[RecordingStats], model: Model, weights: np.ndarray) -> F
     off[list(model.offsets)] = True
     A, b = np.zeros((len(c), len(c))), np.zeros(len(c))
     for rec in train:
-        Hc, gc, _ = rec.centred()
+        Hc, gc, _ = rec.centred
         H = np.where(off[:, None, None], Hc, rec.H)
         g = np.where(off[:, None], gc, rec.g)
         A += np.einsum("j,jpq->pq", weights, H[:, c][:, :, c])
