@@ -6,7 +6,7 @@ rotation — each recording the test once, the others training — this runs
 - the plain fit of :mod:`bench.plain_fit` (recordings read by the package's reader, the sample rate
   of a table without a time column estimated from position and velocity, as ``diagnose`` does), and
 - ``baxter-dynamics diagnose --train … --test … --out DIR --arm left --force --no-progress --jobs 1``
-  in a subprocess (several rotations at once: ``--procs``), reading ``final.test_rms`` and
+  in a subprocess (several rotations at once: ``--procs``; one BLAS thread each), reading ``final.test_rms`` and
   ``denoised.test_rms`` from DIR/diagnosis.json,
 
 and writes per dataset, rotation and joint the held-out RMS of the plain fit, of the denoised rigid
@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import subprocess
 import sys
 import tempfile
@@ -31,6 +32,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from bench.plain_fit import JOINT_SUFFIXES, RecordingStats, UrdfArm, plain_diagnosis, recording_stats
 from msg_adapters.csv_io import read_table_recording
@@ -68,7 +70,9 @@ def run_diagnose(train: Sequence[Path], test: Path, out: Path, arm: str = "left"
     exe = Path(sys.executable).with_name("baxter-dynamics")
     command = [str(exe), "diagnose", "--train", *map(str, train), "--test", str(test), "--out", str(out),
                "--arm", arm, "--force", "--no-progress", "--jobs", "1"]
-    done = subprocess.run(command, capture_output=True, text=True)
+    # One BLAS thread per diagnose, as its own workers have: --procs of them share the cores.
+    env = {**os.environ, **{k: "1" for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}}
+    done = subprocess.run(command, capture_output=True, text=True, env=env)
     if done.returncode != 0:
         raise RuntimeError(f"{' '.join(command)} failed ({done.returncode}):\n{done.stderr}")
     return json.loads((out / "diagnosis.json").read_text())
@@ -85,9 +89,10 @@ def compare_dataset(folder: Path, *, arm: str = "left", procs: int = 2, urdf_arm
             pool.submit(run_diagnose, [f for f in files if f != test], test, Path(scratch) / test.stem, arm) for test in files
         ]
         stats: list[RecordingStats] = []
-        for f in files:
-            rec = read_table_recording(f, arm=arm)
-            stats.append(recording_stats(urdf_arm, f.name, rec.q, rec.qd, rec.effort, rec.rate_hz))
+        with threadpool_limits(1):
+            for f in files:
+                rec = read_table_recording(f, arm=arm)
+                stats.append(recording_stats(urdf_arm, f.name, rec.q, rec.qd, rec.effort, rec.rate_hz))
         out = []
         for k, test in enumerate(files):
             plain = plain_diagnosis([s for i, s in enumerate(stats) if i != k], [stats[k]])
