@@ -141,6 +141,10 @@ def page(rotations: Sequence[Rotation], elapsed_s: float) -> str:
         "- **rigid (denoised)**: `diagnose`'s rigid-body model with its filtered q̈ (`denoised.test_rms`);",
         "- **diagnose**: `baxter-dynamics diagnose --train … --test … --arm left --jobs 1` (`final.test_rms`).",
         "",
+        "The plain fit is a yardstick of held-out error only, not of attribution: fitted freely, `inertial_error` can "
+        "stand in for the s1 spring (../shared/DIAGNOSIS-NOTES.md), and its selections below are what paid on "
+        "leave-one-recording-out error, nothing more.",
+        "",
         f"Goal (issue 20 §1): diagnose ≤ {PLAIN_FACTOR:g} × plain + {PLAIN_SLACK_NM:g} N·m and "
         f"≤ {RIGID_FACTOR:g} × rigid + {RIGID_SLACK_NM:g} N·m at every joint; checked by `test/bench/test_versus_plain.py`.",
         "",
