@@ -1,0 +1,99 @@
+"""The plain reference fit (bench/plain_fit.py) on synthetic recordings with known planted effects.
+
+Efforts are Pinocchio's RNEA of Rethink's URDF (``../shared/reference``) at the exact q̈ of smooth
+sinusoids, plus effects written out here — Coulomb friction f·sign(q̇) at e1, a per-recording offset
+at w1 — and white noise. The fit must select exactly the planted effects, recover their values, and
+reject every absent one; its regressor must reproduce RNEA (Y·π = τ).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from repo_paths import SHARED
+
+from bench.plain_fit import COLUMNS, UrdfArm, plain_diagnosis, recording_stats
+
+URDF = SHARED / "reference" / "baxter.urdf"
+RATE_HZ = 100.0
+COULOMB_E1_NM = 1.5
+OFFSETS_W1_NM = (0.30, 0.34, 0.27, 0.31)  # one per recording; the last is the test recording
+NOISE_NM = 0.02
+
+
+@pytest.fixture(scope="module")
+def arm() -> UrdfArm:
+    if not URDF.is_file():
+        pytest.skip(f"Baxter's URDF is not at {URDF} (../shared/reference beside the checkout)")
+    return UrdfArm.from_urdf("left", URDF)
+
+
+def motion(arm: UrdfArm, seed: int, seconds: float = 20.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(q, q̇, q̈), each (n, 7): per joint two sinusoids of 0.1–0.5 Hz about mid-range, in closed form."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(int(seconds * RATE_HZ)) / RATE_HZ
+    lo, hi = arm.model.lowerPositionLimit, arm.model.upperPositionLimit
+    q = np.tile(0.5 * (lo + hi), (len(t), 1))
+    qd, qdd = np.zeros_like(q), np.zeros_like(q)
+    for _ in range(2):
+        w = 2 * np.pi * rng.uniform(0.1, 0.5, 7)
+        a = 0.12 * (hi - lo) * rng.uniform(0.6, 1.0, 7)
+        arg = np.outer(t, w) + rng.uniform(0, 2 * np.pi, 7)
+        q += a * np.sin(arg)
+        qd += a * w * np.cos(arg)
+        qdd -= a * w**2 * np.sin(arg)
+    return q, qd, qdd
+
+
+@pytest.fixture(scope="module")
+def planted(arm: UrdfArm):
+    """Statistics of 4 recordings (3 to train, 1 to test) with Coulomb friction at e1 and offsets at w1."""
+    stats = []
+    for k, offset in enumerate(OFFSETS_W1_NM):
+        q, qd, qdd = motion(arm, seed=20 + k)
+        effort = arm.torque(q, qd, qdd)
+        effort[:, 3] += COULOMB_E1_NM * np.sign(qd[:, 3])
+        effort[:, 5] += offset
+        effort += np.random.default_rng(100 + k).normal(0.0, NOISE_NM, effort.shape)
+        stats.append(recording_stats(arm, f"rec{k}", q, qd, effort, RATE_HZ))
+    return stats, plain_diagnosis(stats[:3], stats[3:])
+
+
+def test_regressor_reproduces_rnea(arm: UrdfArm) -> None:
+    q, qd, qdd = motion(arm, seed=3, seconds=0.5)
+    np.testing.assert_allclose(arm.regressor(q, qd, qdd) @ arm.pi, arm.torque(q, qd, qdd), atol=1e-9)
+
+
+def test_holding_torque_matches_the_reference_figures(arm: UrdfArm) -> None:
+    # ../shared/reference/README.md: the URDF's gravity torque at q = 0 (either arm: the mounts differ by a yaw).
+    tau = arm.torque(np.zeros((1, 7)), np.zeros((1, 7)), np.zeros((1, 7)))[0]
+    np.testing.assert_allclose(tau, [0, -52.876, 0.030, -15.609, 0.201, -1.819, 0.005], atol=0.02)
+
+
+def test_selects_exactly_the_planted_effects(planted) -> None:
+    _, result = planted
+    assert sorted(result.selected) == ["coulomb_friction@e1", "torque_offset@w1"], result.selected
+
+
+def test_recovers_the_planted_values(planted) -> None:
+    stats, result = planted
+    c = list(result.model.columns)
+    theta = dict(zip(c, result.fit.theta))
+    assert theta[int(COLUMNS["sign"][3])] == pytest.approx(COULOMB_E1_NM, abs=0.03)
+    for rec, offset in zip(stats[:3], OFFSETS_W1_NM):
+        assert result.fit.offsets[rec.name][5] == pytest.approx(offset, abs=0.01)
+    # Held out: the Coulomb term carries over, the test recording's offset is the training mean.
+    assert result.test_rms[3] < 2 * NOISE_NM
+    assert result.test_rms[5] == pytest.approx(np.hypot(NOISE_NM, OFFSETS_W1_NM[3] - np.mean(OFFSETS_W1_NM[:3])), abs=0.005)
+    assert result.rigid_test_rms[3] > 1.0  # what the planted Coulomb term leaves without the fit
+
+
+def test_rejects_an_absent_effect(arm: UrdfArm) -> None:
+    # Nothing but noise on the rigid body: no effect may pass the 5 % rule.
+    stats = []
+    for k in range(3):
+        q, qd, qdd = motion(arm, seed=40 + k, seconds=15.0)
+        effort = arm.torque(q, qd, qdd) + np.random.default_rng(200 + k).normal(0.0, NOISE_NM, (len(q), 7))
+        stats.append(recording_stats(arm, f"noise{k}", q, qd, effort, RATE_HZ))
+    result = plain_diagnosis(stats[:2], stats[2:])
+    assert result.selected == ()
