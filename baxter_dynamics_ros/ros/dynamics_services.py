@@ -60,7 +60,10 @@ class ServiceThread:
             ready = wait_set.get_ready_entities("service")
             for service in self._services:
                 if service.handle.pointer in ready:
-                    self._serve(service)
+                    try:
+                        self._serve(service)
+                    except Exception as err:  # rmw could not take or answer (the client left): serve on
+                        self._logger.warn(f"{service.service_name}: request not answered: {err!r}", throttle_duration_sec=1.0)
 
     def _serve(self, service: Service) -> None:
         request, header = service.handle.service_take_request(service.srv_type.Request)
