@@ -41,6 +41,12 @@ calibrate``) or from ``~/calibrate`` (std_srvs/Trigger: thresholds calibrated on
 reason, on too little data). ``~/set_monitoring`` (std_srvs/SetBool) switches detection on and
 off (off: no collision). Without thresholds nothing is detected.
 
+Dynamics services (:mod:`.dynamics_services`): ``~/compute_gravity``, ``~/compute_inverse_dynamics``,
+``~/compute_mass_matrix``, ``~/compute_forward_dynamics`` and ``~/compute_flange_kinematics``
+(baxter_dynamics_interfaces/srv), batched and named by joint, answered by a thread of their own so
+that no request delays a joint-state sample; without the built interface package the node starts
+without them and warns once.
+
 Service ``~/reset`` (std_srvs/Trigger) restarts the q̈ estimator and the observer, and forgets the
 samples buffered for calibration. With ``use_sim_time`` the node
 runs on /clock; a backwards jump of that clock (a recording looping) resets the estimator, as does
