@@ -2,8 +2,8 @@
 
 The node runs as ``python -m baxter_dynamics_ros.ros.node`` (test/conftest.py's harness); this
 process calls its ``~/compute_*`` services. Answers are compared with the core
-(:class:`~baxter_dynamics_ros.core.queries.DynamicsQueries`, to 1e-12) and with Pinocchio on the
-paper's tables (reference_models, the tolerances of test/core/test_lagrange_euler.py). Requests
+(:class:`~baxter_dynamics_ros.core.queries.DynamicsQueries`, to 1e-12) and with Pinocchio's
+algorithms on the arm's model (reference_models, the tolerances of test/core/test_lagrange_euler.py). Requests
 carry all 21 joints of a real Baxter in its alphabetical order, so the mapping by name is checked
 with every answer. Every bad request is answered success false, naming the field, and the node
 answers the next good one. Last, the live path: /robot/joint_states at 500 Hz gives the same
@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from reference_models import assert_close, paper_reference, random_states
+from reference_models import assert_close, pinocchio_from_arm, random_states
 from repo_paths import REPO
 from test_node import CONFIG, JOINTS, RIGHT, joint_state, next_start_ns
 
@@ -134,7 +134,7 @@ def test_answers_equal_the_core(node, ros_client, states, compensate: bool) -> N
 
 @needs_interfaces
 def test_rigid_answers_equal_pinocchio(node, ros_client, states) -> None:
-    ref = paper_reference("right")
+    ref = pinocchio_from_arm(RIGHT)  # Pinocchio's algorithms on the arm's DH table and inertials (no URDF needed)
     q, qd, qdd, tau, wide = states["q"], states["qd"], states["qdd"], states["tau"], states["wide"]
 
     def each(f, *arrays):
