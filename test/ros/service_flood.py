@@ -38,6 +38,13 @@ def main(prefix: str) -> int:
         (mass, MassMatrix.Request(name=JOINTS, position=q1000.ravel().tolist())),
         (gravity, Gravity.Request(name=JOINTS, position=q1.ravel().tolist())),
     ]
+    for client, request in requests:  # answered once each: a first answer may be lost while discovery completes
+        while True:
+            future = client.call_async(request)
+            executor.spin_until_future_complete(future, timeout_sec=2.0)
+            if future.done():
+                break
+            client.remove_pending_request(future)
     done = threading.Event()
     threading.Thread(target=lambda: (sys.stdin.read(), done.set()), daemon=True).start()
     calls = failed = 0

@@ -85,22 +85,30 @@ def states():
 _clients: dict[str, object] = {}
 
 
+RESEND_S = 2.0
+
+
 def request(ros_client, srv_type, name: str, req, timeout_s: float = 30.0):
     """The response of service ``name`` to ``req``, through one client per service kept for the
-    module, as a real client keeps its client (a client made for each call may miss the first
-    answers while discovery completes)."""
+    module, as a real client keeps its client. A request unanswered after RESEND_S is sent again:
+    right after discovery rmw may drop an answer to a client whose response reader the node has
+    not matched yet (the node's log then says "failed to send response (timeout)"); the queries
+    are idempotent."""
     client = _clients.get(name)
     if client is None:
         client = _clients[name] = ros_client.node.create_client(srv_type, name)
         if not client.wait_for_service(timeout_sec=timeout_s):
             pytest.fail(f"service {name} not available after {timeout_s} s")
-    future = client.call_async(req)
     deadline = time.monotonic() + timeout_s
-    while not future.done():
-        if time.monotonic() > deadline:
-            pytest.fail(f"service {name} did not answer within {timeout_s} s")
-        time.sleep(0.002)
-    return future.result()
+    while time.monotonic() < deadline:
+        future = client.call_async(req)
+        resend = time.monotonic() + RESEND_S
+        while not future.done() and time.monotonic() < min(resend, deadline):
+            time.sleep(0.002)
+        if future.done():
+            return future.result()
+        client.remove_pending_request(future)
+    pytest.fail(f"service {name} did not answer within {timeout_s} s")
 
 
 def call(ros_client, srv_type, service: str, **fields):
