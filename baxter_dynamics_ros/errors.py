@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-__all__ = ["BaxterDynamicsError", "ModelFileError", "InputShapeError", "RecordingError", "RecordingFileError", "EffectSpecError", "SimulationError", "PlaybackError", "SettingsError", "DiagnosisError", "CollisionError", "OutputError", "WorkerError"]
+__all__ = ["BaxterDynamicsError", "ModelFileError", "InputShapeError", "RecordingError", "RecordingFileError", "EffectSpecError", "SimulationError", "PlaybackError", "SettingsError", "DiagnosisError", "CollisionError", "OutputError", "WorkerError", "QueryError"]
 
 
 class BaxterDynamicsError(Exception):
@@ -55,3 +55,8 @@ class OutputError(BaxterDynamicsError):
 
 class WorkerError(BaxterDynamicsError):
     """Per-file work cannot run in worker processes or on a cluster (scheduler unreachable, a worker died)."""
+
+
+class QueryError(BaxterDynamicsError, ValueError):
+    """A dynamics query (a service request) cannot be answered: joint names, lengths, non-finite
+    values, too many states, effects asked for but not loaded."""

@@ -2,6 +2,8 @@
 
 - :mod:`msg_adapters.joint_state` — the live node's messages: serialized ``sensor_msgs/JointState``
   to one arm's arrays by joint name and back, and its DiagnosticArray;
+- :mod:`msg_adapters.dynamics_services` — the dynamics services' requests (named joints, flat
+  arrays) to one arm's arrays, checked field by field, and the arrays back into responses;
 - :mod:`msg_adapters.serialized_joint_states` — JointState / SEAJointState bytes decoded and
   encoded in bulk;
 - :mod:`msg_adapters.bag_io`, :mod:`msg_adapters.mcap_writer` — ROS 1 and ROS 2 bags in and out;
@@ -9,9 +11,10 @@
 - :mod:`msg_adapters.recording_files` — which reader or writer a path calls for.
 
 Submodules are imported on demand (``from msg_adapters.bag_io import ...``): only
-:mod:`~msg_adapters.joint_state` needs rclpy's message packages.
+:mod:`~msg_adapters.joint_state` needs rclpy's message packages (and
+:func:`msg_adapters.dynamics_services.service_types` the built baxter_dynamics_interfaces).
 """
 
 from __future__ import annotations
 
-__all__ = ["bag_io", "csv_io", "joint_state", "mcap_writer", "recording_files", "serialized_joint_states"]
+__all__ = ["bag_io", "csv_io", "dynamics_services", "joint_state", "mcap_writer", "recording_files", "serialized_joint_states"]

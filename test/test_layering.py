@@ -44,7 +44,7 @@ OWN = {
         "baxter_dynamics_ros.core.joints", "baxter_dynamics_ros.core.output_files",
     },
 }  # fmt: skip
-ROS_MESSAGES = {"rclpy", "rcl_interfaces", "builtin_interfaces", "sensor_msgs", "std_msgs", "std_srvs", "diagnostic_msgs", "rosgraph_msgs"}
+ROS_MESSAGES = {"rclpy", "rcl_interfaces", "builtin_interfaces", "sensor_msgs", "std_msgs", "std_srvs", "diagnostic_msgs", "rosgraph_msgs", "baxter_dynamics_interfaces"}
 #: Other distributions' top-level modules a layer may import.
 OTHERS = {
     "core": {"numpy", "numba", "scipy", "yaml", "pinocchio"},

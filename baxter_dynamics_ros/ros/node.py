@@ -41,6 +41,12 @@ calibrate``) or from ``~/calibrate`` (std_srvs/Trigger: thresholds calibrated on
 reason, on too little data). ``~/set_monitoring`` (std_srvs/SetBool) switches detection on and
 off (off: no collision). Without thresholds nothing is detected.
 
+Dynamics services (:mod:`.dynamics_services`): ``~/compute_gravity``, ``~/compute_inverse_dynamics``,
+``~/compute_mass_matrix``, ``~/compute_forward_dynamics`` and ``~/compute_flange_kinematics``
+(baxter_dynamics_interfaces/srv), batched and named by joint, answered by a thread of their own so
+that no request delays a joint-state sample; without the built interface package the node starts
+without them and warns once.
+
 Service ``~/reset`` (std_srvs/Trigger) restarts the q̈ estimator and the observer, and forgets the
 samples buffered for calibration. With ``use_sim_time`` the node
 runs on /clock; a backwards jump of that clock (a recording looping) resets the estimator, as does
@@ -101,6 +107,7 @@ from msg_adapters.joint_state import ArmJointStateWriter, JointStateReader, diag
 
 from ..core.arm_model import load_arm_model
 from ..core.compensation import load_compensation
+from ..core.queries import DynamicsQueries
 from ..core.samples import SKIP_DESCRIPTIONS, ResetCause, SkipReason
 from ..errors import BaxterDynamicsError, CollisionError, SettingsError
 from ..monitoring.collision_monitor import CollisionMonitor
@@ -108,6 +115,7 @@ from ..monitoring.health import HealthMonitor
 from ..monitoring.observer import observe_arrays
 from ..monitoring.pipeline import ResidualPipeline
 from ..monitoring.thresholds import read_thresholds
+from . import dynamics_services
 from .node_settings import NodeSettings
 
 __all__ = ["DynamicsNode", "SubscriptionThread", "main"]
@@ -269,6 +277,8 @@ class DynamicsNode(Node):
         self._reset_service = self.create_service(Trigger, "~/reset", self.on_reset)
         self._calibrate_service = self.create_service(Trigger, "~/calibrate", self.on_calibrate)
         self._monitoring_service = self.create_service(SetBool, "~/set_monitoring", self.on_set_monitoring)
+        # The dynamics of given states on request: their own group and thread (None if not built).
+        self._dynamics_services = dynamics_services.create(self, DynamicsQueries(arm, compensation), OwnThreadGroup())
 
         self._steady_clock = Clock(clock_type=ClockType.STEADY_TIME)
         self._window_start_ns = self._steady_clock.now().nanoseconds
@@ -307,6 +317,8 @@ class DynamicsNode(Node):
 
     def destroy_node(self) -> None:
         self._taker.stop()
+        if self._dynamics_services is not None:
+            self._dynamics_services.stop()
         super().destroy_node()
 
     # ------------------------------------------------------------------------------ callbacks
