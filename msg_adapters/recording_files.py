@@ -62,7 +62,7 @@ def read_recording(
     try:
         if path.suffix in TABLE_SUFFIXES:
             return read_table_recording(path, arm=arm, rate_hz=rate_hz, note=note)
-        return read_bag_recording(path, topic=topic, arm=arm, progress=progress)
+        return read_bag_recording(path, topic=topic, arm=arm, progress=progress, note=note)
     except RecordingError as err:
         raise RecordingFileError(f"{path}: {err}") from err
 
