@@ -89,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
         files=[str(p) for p in args.files],
     )  # fmt: skip
     require_plausible(thresholds, arm, str(args.out))
-    write_thresholds(args.out, thresholds)
+    write_thresholds(args.out, thresholds, replace=args.force)
     joints = "  ".join(f"{j.split('_', 1)[-1]} {a:.2f}+{b:.2f}|q̇|" for j, a, b in zip(arm.joint_names, thresholds.offset_nm, thresholds.slope_nm_s_rad))
     print(f"{args.out}: thresholds [N·m] {joints}; effort delay {thresholds.effort_delay_s * 1e3:+.1f} ms")
     return 0

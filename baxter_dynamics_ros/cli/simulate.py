@@ -106,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
     )
     result = simulate(spec)
     states = robot_joint_states(result.recording(), result.other_q, result.other_effort)
-    with staged_outputs([args.out, truth]) as (staged_out, staged_truth):  # both or neither
+    with staged_outputs([args.out, truth], replace=args.force) as (staged_out, staged_truth):  # both or neither
         write_joint_states(
             staged_out, states.stamps_ns, states.names, states.position, states.velocity, states.effort, topic=args.topic
         )

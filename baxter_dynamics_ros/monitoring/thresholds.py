@@ -147,9 +147,10 @@ class Thresholds:
             raise CollisionError(f"{where}: {err}") from err
 
 
-def write_thresholds(path: str | os.PathLike[str], thresholds: Thresholds) -> None:
-    """Write ``thresholds`` as YAML (thresholds.yaml), whole or not at all (:mod:`~baxter_dynamics_ros.core.output_files`)."""
-    with staged_outputs([Path(path)]) as (staged,), open(staged, "w", encoding="utf-8") as stream:
+def write_thresholds(path: str | os.PathLike[str], thresholds: Thresholds, *, replace: bool = True) -> None:
+    """Write ``thresholds`` as YAML (thresholds.yaml), whole or not at all (:mod:`~baxter_dynamics_ros.core.output_files`;
+    replace: False refuses a file that is there, also one written meanwhile)."""
+    with staged_outputs([Path(path)], replace=replace) as (staged,), open(staged, "w", encoding="utf-8") as stream:
         stream.write("# Collision thresholds a + b|q̇| per joint, from `baxter-dynamics calibrate`.\n")
         yaml.safe_dump(thresholds.to_dict(), stream, sort_keys=False, allow_unicode=True)
 
