@@ -4,7 +4,8 @@ Reading: a ROS 1 ``.bag`` file, a ROS 2 bag directory (sqlite3 or mcap) or a sin
 ``.db3`` file. Joint states are ``sensor_msgs/JointState`` or ``baxter_core_msgs/SEAJointState``
 (its ``actual_*`` arrays) on any topic, default ``/robot/joint_states``. Joints are matched by name:
 a message may carry any superset of the arm's joints in any order; messages lacking one of them,
-or an empty velocity/effort array, are skipped. Sample times are the header stamps (the bag's
+or an empty velocity/effort array, are skipped and counted in one warning line per file, and so are
+samples no real Baxter gives (:mod:`baxter_dynamics_ros.core.plausibility`). Sample times are the header stamps (the bag's
 receive times when every header stamp is zero).
 
 Writing: JointState topics sharing their stamps as a ROS 2 bag in one mcap file

@@ -19,6 +19,10 @@ the data (:func:`~baxter_dynamics_ros.core.recording.estimate_rate_hz`: least sq
 without a given rate the estimate is used and said, and a given rate more than
 :data:`RATE_TOLERANCE` away from the estimate is refused.
 
+Rows no real Baxter gives (:mod:`baxter_dynamics_ros.core.plausibility`: NaN, a position beyond
+the limits, a speed or effort beyond 3 × the limits) are left out and counted in one warning line;
+the rate is estimated without them, and their times stay a gap in the stamps.
+
 Written by :func:`write_processed_table`: ``stamp_ns``, ``time_s`` (s since the first sample),
 ``position_``, ``velocity_``, ``effort_`` (the input), ``acceleration_`` (estimated q̈, rad/s²),
 ``gravity_``, ``inverse_dynamics_``, ``residual_`` (N·m) for the arm's 7 joints.
