@@ -161,3 +161,11 @@ def test_two_diagnose_runs_racing_for_one_new_out_never_both_succeed(recordings:
     assert f"{out}" in winner.stdout
     assert sorted(p.name for p in out.iterdir()) == sorted(["diagnosis.json", "report.html", "effects.yaml", "residual_over_time.png", "regimes.png", "before_after.png"])
     assert [p for p in listing(tmp_path) if "partial" in p] == []
+
+
+def test_simulate_refuses_effects_no_real_baxter_has(tmp_path: Path) -> None:
+    spec = tmp_path / "effects.yaml"
+    spec.write_text("effects:\n  torque_offset: {offset_nm: {s1: 1.0e+30}}\n")
+    line = the_error(run_cli("simulate", "--duration", "1", "--effects", spec, "--out", tmp_path / "sim.mcap"))
+    assert line.startswith(f"ERROR: {spec}: with these effects the model's torque at right_s1 reaches 1e+30 N·m within the joint and velocity limits, above 300 N·m")
+    assert listing(tmp_path) == ["effects.yaml"]
