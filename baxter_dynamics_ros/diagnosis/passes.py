@@ -134,8 +134,8 @@ def test_figures(
             b = min(len(rec), a + CHUNK)
             effects[a:b] = explained(arm, layout, p, columns, x, a, b)
     qdd = zero_phase_acceleration(rec.qd, rec.rate_hz, min(5.0, 0.4 * rec.rate_hz), segments=rec.segments)
-    raw = gap_sums(p.residual_raw, rec.q, rec.qd, qdd, rec.rate_hz, angle_edges)
-    filtered = gap_sums(p.residual, rec.q, rec.qd, qdd, rec.rate_hz, angle_edges)
+    raw = gap_sums(p.residual_raw, rec.q, rec.qd, qdd, rec.rate_hz, angle_edges, segments=rec.segments)
+    filtered = gap_sums(p.residual, rec.q, rec.qd, qdd, rec.rate_hz, angle_edges, segments=rec.segments)
     pick = slice(None, None, stride)
     series = {"t_s": p.stamps_s[pick], "baseline": p.residual_raw[pick], "filtered": p.residual[pick], "final": (p.residual - effects)[pick]}
     return TestFigures(raw, filtered, series, float(p.stamps_s[-1] + 1.0 / rec.rate_hz))
