@@ -4,7 +4,8 @@ Reading: a ROS 1 ``.bag`` file, a ROS 2 bag directory (sqlite3 or mcap) or a sin
 ``.db3`` file. Joint states are ``sensor_msgs/JointState`` or ``baxter_core_msgs/SEAJointState``
 (its ``actual_*`` arrays) on any topic, default ``/robot/joint_states``. Joints are matched by name:
 a message may carry any superset of the arm's joints in any order; messages lacking one of them,
-or an empty velocity/effort array, are skipped. Sample times are the header stamps (the bag's
+or an empty velocity/effort array, are skipped and counted in one warning line per file, and so are
+samples no real Baxter gives (:mod:`baxter_dynamics_ros.core.plausibility`). Sample times are the header stamps (the bag's
 receive times when every header stamp is zero).
 
 Writing: JointState topics sharing their stamps as a ROS 2 bag in one mcap file
@@ -25,7 +26,9 @@ import numpy as np
 from rosbags.highlevel import AnyReader
 
 from baxter_dynamics_ros.core.joints import ARM_SIDES, arm_joint_names
+from baxter_dynamics_ros.core.plausibility import plausible_recording
 from baxter_dynamics_ros.core.recording import OtherArm, ProcessedRecording, Recording, detect_arm, require_activity
+from baxter_dynamics_ros.core.samples import SkipReason
 from baxter_dynamics_ros.errors import RecordingFileError
 
 from .mcap_writer import write_mcap
@@ -162,13 +165,17 @@ def read_bag_recording(
     topic: str = DEFAULT_TOPIC,
     arm: str | None = None,
     progress: Progress | None = None,
+    note: Callable[[str], None] | None = None,
 ) -> Recording:
     """The recording of one arm from the joint states on ``topic`` of a bag.
 
     arm: "right" or "left"; None detects it from the joint names (when both arms are recorded,
     the one that moves more; see :func:`~baxter_dynamics_ros.core.recording.detect_arm`). Refuses an
     arm that does not move or has no effort (:func:`~baxter_dynamics_ros.core.recording.require_activity`).
-    progress: called as progress(messages read, total) while reading.
+    progress: called as progress(messages read, total) while reading. Messages that are not a sample
+    of the arm (one of its joints missing, an array without one entry per name) and samples no real
+    Baxter can give (:func:`~baxter_dynamics_ros.core.plausibility.plausible_recording`) are left
+    out, each kind counted in one line said through ``note``.
     """
     path = Path(path)
     (data,) = _read_topics(path, [topic], progress)
@@ -193,10 +200,31 @@ def read_bag_recording(
         np.concatenate([_columns(getattr(b, f), b.names, joints) for b in chosen])[order]
         for f in ("position", "velocity", "effort")
     )
-    recording = Recording(arm, joints, stamps_ns, q, qd, effort)
+    malformed = _malformed(data.blocks, joints, topic)
+    if malformed is not None and note is not None:
+        note(f"WARNING: {path}: {malformed}")
+    recording = plausible_recording(str(path), arm, stamps_ns, q, qd, effort, note)
     others = {side: _other_arm(complete, side) for side in ARM_SIDES if side != arm}
     require_activity(arm, recording.q, recording.effort, {side: o for side, o in others.items() if o is not None})
     return recording
+
+
+def _malformed(blocks: list[JointStateBlock], joints: Sequence[str], topic: str) -> str | None:
+    """What the messages that are no sample of the arm (``joints``) were, in words; None if none.
+
+    The causes are the node's (:class:`~baxter_dynamics_ros.core.samples.SkipReason`): one of the
+    arm's joints missing from the names (or named twice), a position, velocity or effort array not
+    of one entry per name (an empty velocity or effort included: the offline methods need all three)."""
+    total = sum(len(b.index) for b in blocks)
+    missing = sum(len(b.index) for b in blocks if not set(joints) <= set(b.names) or len(set(b.names)) != len(b.names))
+    length = sum(
+        len(b.index) for b in blocks
+        if set(joints) <= set(b.names) and len(set(b.names)) == len(b.names) and (b.position is None or b.velocity is None or b.effort is None)
+    )
+    if not missing + length:
+        return None
+    causes = [f"{missing} {SkipReason.MISSING_JOINT.value}"] * bool(missing) + [f"{length} {SkipReason.ARRAY_LENGTH.value}"] * bool(length)
+    return f"{missing + length} of {total} messages on {topic} skipped as malformed ({', '.join(causes)})"
 
 
 def _other_arm(blocks: list[JointStateBlock], side: str) -> OtherArm | None:

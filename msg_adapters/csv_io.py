@@ -19,6 +19,10 @@ the data (:func:`~baxter_dynamics_ros.core.recording.estimate_rate_hz`: least sq
 without a given rate the estimate is used and said, and a given rate more than
 :data:`RATE_TOLERANCE` away from the estimate is refused.
 
+Rows no real Baxter gives (:mod:`baxter_dynamics_ros.core.plausibility`: NaN, a position beyond
+the limits, a speed or effort beyond 3 × the limits) are left out and counted in one warning line;
+the rate is estimated without them, and their times stay a gap in the stamps.
+
 Written by :func:`write_processed_table`: ``stamp_ns``, ``time_s`` (s since the first sample),
 ``position_``, ``velocity_``, ``effort_`` (the input), ``acceleration_`` (estimated q̈, rad/s²),
 ``gravity_``, ``inverse_dynamics_``, ``residual_`` (N·m) for the arm's 7 joints.
@@ -33,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from baxter_dynamics_ros.core.joints import ARM_SIDES, JOINT_SUFFIXES, arm_joint_names
+from baxter_dynamics_ros.core.plausibility import package_bounds, plausible_recording, screen_samples
 from baxter_dynamics_ros.core.recording import OtherArm, ProcessedRecording, Recording, detect_arm, estimate_rate_hz, require_activity
 from baxter_dynamics_ros.errors import RecordingFileError
 
@@ -205,8 +210,15 @@ def read_table_recording(
         missing = [p + j for p in prefixes for j in joints if p + j not in columns]
         raise RecordingFileError(f"{path}: the {arm} arm needs columns missing here: {', '.join(missing)}")
     q, qd, effort = (np.column_stack([columns[c] for c in names[7 * k : 7 * k + 7]]).astype(np.float64) for k in range(3))
-    require_activity(arm, q, effort, _other_arms(columns, prefixes, arm))
-    return Recording(arm, joints, _sample_times_ns(path, columns, q, qd, rate_hz, note), q, qd, effort)
+    screening = screen_samples(package_bounds(arm), q, qd, effort)
+    error = screening.refusal()
+    if error is not None:
+        raise error
+    keep = screening.keep
+    require_activity(arm, q[keep], effort[keep], _other_arms(columns, prefixes, arm))
+    gone = np.where(keep[:, None], 0.0, np.nan)  # implausible rows left out of the rate's estimate
+    stamps_ns = _sample_times_ns(path, columns, q + gone, qd + gone, rate_hz, note)
+    return plausible_recording(str(path), arm, stamps_ns, q, qd, effort, note, screening)
 
 
 def joint_state_columns(

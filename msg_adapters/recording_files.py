@@ -62,7 +62,7 @@ def read_recording(
     try:
         if path.suffix in TABLE_SUFFIXES:
             return read_table_recording(path, arm=arm, rate_hz=rate_hz, note=note)
-        return read_bag_recording(path, topic=topic, arm=arm, progress=progress)
+        return read_bag_recording(path, topic=topic, arm=arm, progress=progress, note=note)
     except RecordingError as err:
         raise RecordingFileError(f"{path}: {err}") from err
 
@@ -95,7 +95,7 @@ def write_processed(
     """
     path = Path(path)
     fmt = check_output(path, replace)
-    with staged_outputs([path]) as (staged,):
+    with staged_outputs([path], replace=replace) as (staged,):
         if fmt == "mcap":
             write_processed_bag(staged, processed, input_topic)
         else:
@@ -118,7 +118,7 @@ def write_joint_states(
     Whole or not at all, as :func:`write_processed`."""
     path = Path(path)
     fmt = check_output(path, replace)
-    with staged_outputs([path]) as (staged,):
+    with staged_outputs([path], replace=replace) as (staged,):
         if fmt == "mcap":
             write_joint_state_bag(staged, stamps_ns, {topic: (names, position, velocity, effort)})
         else:

@@ -7,7 +7,7 @@
 | diagnosis | core, simulation | numpy, numba, scipy, yaml, matplotlib |
 | ros | everything above, msg_adapters | rclpy and ROS messages |
 | cli | everything | everything |
-| msg_adapters | core's records (recording, samples, joints), output_files, errors | rosbags, pyarrow, rclpy messages |
+| msg_adapters | core's records (recording, samples, joints), plausibility, output_files, errors | rosbags, pyarrow, rclpy messages |
 
 Two checks: every import statement in a layer's source, wherever it stands (a function's lazy
 import too), names only what the table allows; and importing each module of core, monitoring,
@@ -41,7 +41,7 @@ OWN = {
     },
     "msg_adapters": {
         "baxter_dynamics_ros.errors", "baxter_dynamics_ros.core.recording", "baxter_dynamics_ros.core.samples",
-        "baxter_dynamics_ros.core.joints", "baxter_dynamics_ros.core.output_files",
+        "baxter_dynamics_ros.core.joints", "baxter_dynamics_ros.core.output_files", "baxter_dynamics_ros.core.plausibility",
     },
 }  # fmt: skip
 ROS_MESSAGES = {"rclpy", "rcl_interfaces", "builtin_interfaces", "sensor_msgs", "std_msgs", "std_srvs", "diagnostic_msgs", "rosgraph_msgs", "baxter_dynamics_interfaces"}

@@ -66,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
     from ..core.output_files import check_outputs
     from ..core.recording import MIN_FIT_S, require_length
     from ..monitoring.calibration import calibrate
-    from ..monitoring.thresholds import write_thresholds
+    from ..monitoring.thresholds import require_plausible, write_thresholds
 
     args.files = expand_inputs(args.files)
     check_paths(args.files, [args.out])
@@ -88,7 +88,8 @@ def run(args: argparse.Namespace) -> int:
         consecutive=args.consecutive, bias_time_constant_s=args.bias_time_constant, speed_dependent=not args.constant,
         files=[str(p) for p in args.files],
     )  # fmt: skip
-    write_thresholds(args.out, thresholds)
+    require_plausible(thresholds, arm, str(args.out))
+    write_thresholds(args.out, thresholds, replace=args.force)
     joints = "  ".join(f"{j.split('_', 1)[-1]} {a:.2f}+{b:.2f}|q̇|" for j, a, b in zip(arm.joint_names, thresholds.offset_nm, thresholds.slope_nm_s_rad))
     print(f"{args.out}: thresholds [N·m] {joints}; effort delay {thresholds.effort_delay_s * 1e3:+.1f} ms")
     return 0

@@ -68,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
         scratch = None if args.scheduler not in (None, "local") else stack.enter_context(tempfile.TemporaryDirectory(prefix="baxter-dynamics-"))
         mapper = stack.enter_context(file_mapper(args.jobs, args.scheduler))
         result = _diagnose(args, given, show, mapper, scratch)
-    paths = write_diagnosis(result, args.out)
+    paths = write_diagnosis(result, args.out, replace=args.force)
     print(_summary(result))
     print(f"report: {paths['report.html']}")
     return 0

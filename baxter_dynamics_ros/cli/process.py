@@ -84,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
     check_paths(inputs, [args.out, *outputs])
     for out in outputs:
         check_output(out, replace=args.force)
-    with staged_outputs(outputs) as staged, file_mapper(args.jobs, None) as mapper:
+    with staged_outputs(outputs, replace=args.force) as staged, file_mapper(args.jobs, None) as mapper:
         done = mapper(partial(_process_one, options), list(zip(inputs, staged)))
     for out, what in zip(outputs, done):
         print(f"{out}: {what}")

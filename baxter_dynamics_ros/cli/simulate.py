@@ -87,6 +87,8 @@ def run(args: argparse.Namespace) -> int:
     from msg_adapters.recording_files import check_output, write_joint_states
     from msg_adapters.robot_joint_states import robot_joint_states
 
+    from ..core.arm_model import load_arm_model
+    from ..core.compensation import Compensation, require_plausible
     from ..core.output_files import check_outputs, staged_outputs
     from ..simulation.plant import simulate
     from ..simulation.sensor import write_ground_truth
@@ -99,6 +101,8 @@ def run(args: argparse.Namespace) -> int:
         trajectory=args.trajectory, duration_s=args.duration, rate_hz=args.rate_hz, seed=args.seed, side=args.arm,
         **load_spec(args.effects),
     )  # fmt: skip
+    if args.effects is not None:  # effects no real Baxter has would make a recording no real Baxter gives
+        require_plausible(Compensation(load_arm_model(spec.side), spec.effects), str(args.effects))
     print(
         f"simulating {spec.duration_s:g} s of {spec.trajectory} on the {spec.side} arm, "
         f"RK4 at {spec.physics_rate_hz:g} Hz, recorded at {spec.rate_hz:g} Hz",
@@ -106,7 +110,7 @@ def run(args: argparse.Namespace) -> int:
     )
     result = simulate(spec)
     states = robot_joint_states(result.recording(), result.other_q, result.other_effort)
-    with staged_outputs([args.out, truth]) as (staged_out, staged_truth):  # both or neither
+    with staged_outputs([args.out, truth], replace=args.force) as (staged_out, staged_truth):  # both or neither
         write_joint_states(
             staged_out, states.stamps_ns, states.names, states.position, states.velocity, states.effort, topic=args.topic
         )

@@ -22,6 +22,7 @@ choice (``process --acceleration``, the node's ``estimator`` parameter).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import NamedTuple
 
 import numpy as np
@@ -160,12 +161,16 @@ def _lowpass_step(x, xd, u_previous, u, wc, damping, dt_s):
         u_previous[j] = u[j]
 
 
-def zero_phase_lowpass(x: np.ndarray, rate_hz: float, cutoff_hz: float, order: int = 2) -> np.ndarray:
+def zero_phase_lowpass(
+    x: np.ndarray, rate_hz: float, cutoff_hz: float, order: int = 2, segments: Sequence[tuple[int, int]] | None = None
+) -> np.ndarray:
     """x (N, k) low-passed forwards and backwards: zero phase, −6 dB at cutoff_hz, x sampled at rate_hz.
 
     A Butterworth filter of ``order`` in second-order sections (``scipy.signal.sosfiltfilt``), the
     ends padded by odd reflection over scipy's default length, 3 · (2 · sections + 1) samples (9 for
     order 2), or N − 1 samples when the series is shorter. cutoff_hz must lie in (0, rate_hz / 2).
+    segments: (start, stop) of the runs of evenly spaced samples
+    (:attr:`~.recording.Recording.segments`), each filtered on its own, never across a gap; None: one run.
     """
     from scipy.signal import butter, sosfiltfilt
 
@@ -174,6 +179,11 @@ def zero_phase_lowpass(x: np.ndarray, rate_hz: float, cutoff_hz: float, order: i
         raise ValueError(f"rate_hz must be positive and finite, got {rate_hz}")
     if not (0 < cutoff_hz < rate_hz / 2):
         raise ValueError(f"cutoff_hz must lie in (0, {rate_hz / 2}) Hz, got {cutoff_hz}")
+    if segments is not None and len(segments) > 1:
+        out = np.empty_like(x)
+        for start, stop in segments:
+            out[start:stop] = zero_phase_lowpass(x[start:stop], rate_hz, cutoff_hz, order)
+        return out
     if len(x) < 2:
         return x.copy()
     sos = butter(order, cutoff_hz, fs=rate_hz, output="sos")
@@ -182,17 +192,24 @@ def zero_phase_lowpass(x: np.ndarray, rate_hz: float, cutoff_hz: float, order: i
 
 
 def zero_phase_acceleration(
-    qd: np.ndarray, rate_hz: float, cutoff_hz: float | None = 5.0, order: int = 2
+    qd: np.ndarray, rate_hz: float, cutoff_hz: float | None = 5.0, order: int = 2, segments: Sequence[tuple[int, int]] | None = None
 ) -> np.ndarray:
     """Offline q̈ (N, 7) rad/s² from q̇ (N, 7) rad/s sampled at rate_hz.
 
     q̇ is low-passed forwards and backwards (:func:`zero_phase_lowpass`: Butterworth of ``order``,
     −6 dB at ``cutoff_hz``, zero phase), then differentiated by central differences.
-    ``cutoff_hz=None`` skips the filter.
+    ``cutoff_hz=None`` skips the filter. segments: (start, stop) of the runs of evenly spaced
+    samples (:attr:`~.recording.Recording.segments`), each filtered on its own, so that no filter
+    or difference reaches across a gap; None: one run. A run of one sample has q̈ = 0.
     """
     qd = np.asarray(qd, dtype=float)
     if not (np.isfinite(rate_hz) and rate_hz > 0):
         raise ValueError(f"rate_hz must be positive and finite, got {rate_hz}")
+    if segments is not None and len(segments) > 1:
+        out = np.zeros_like(qd)
+        for start, stop in segments:
+            out[start:stop] = zero_phase_acceleration(qd[start:stop], rate_hz, cutoff_hz, order)
+        return out
     if len(qd) < 2:
         return np.zeros_like(qd)
     smooth = qd if cutoff_hz is None else zero_phase_lowpass(qd, rate_hz, cutoff_hz, order)

@@ -24,8 +24,9 @@ from ..errors import EffectSpecError
 from .arm_model import ArmModel
 from .effect_specs import effects_from_dict, read_spec_file
 from .effects import Effect, InertialChange
+from .plausibility import PLAUSIBLE_FACTOR
 
-__all__ = ["NOT_COMPENSATED", "Compensation", "load_compensation"]
+__all__ = ["NOT_COMPENSATED", "PLAUSIBILITY_STATES", "PLAUSIBLE_QDD_RAD_S2", "Compensation", "load_compensation", "require_plausible"]
 
 #: Effects of a recording that a live, causal model cannot undo.
 NOT_COMPENSATED = ("delay", "acceleration_noise")
@@ -63,4 +64,39 @@ def load_compensation(arm: ArmModel, path: str | os.PathLike[str]) -> Compensati
         raise EffectSpecError(f"{path}: effects identified on the {side} arm, but the model is of the {arm.side} arm")
     if "effects" not in raw:
         raise EffectSpecError(f"{path}: no 'effects' section; write effects: {{name: {{parameter: value}}}}")
-    return Compensation(arm, effects_from_dict(raw["effects"], f"{path}: effects"))
+    compensation = Compensation(arm, effects_from_dict(raw["effects"], f"{path}: effects"))
+    require_plausible(compensation, str(path))
+    return compensation
+
+
+#: States the effects are checked at (:func:`require_plausible`): this many, drawn once (seed 0)
+#: within the joint limits, at speeds up to the velocity limits and |q̈| up to PLAUSIBLE_QDD_RAD_S2.
+PLAUSIBILITY_STATES = 512
+#: The largest |q̈| of those states, rad/s² (that of the Pinocchio cross-checks; the arm's own
+#: motions stay below).
+PLAUSIBLE_QDD_RAD_S2 = 5.0
+
+
+def require_plausible(compensation: Compensation, where: str) -> None:
+    """Refuse (EffectSpecError) effects under which the model's torque τ + Σ shares leaves the
+    plausible effort (:data:`~.plausibility.PLAUSIBLE_FACTOR` × the effort limit, the largest effort a
+    real Baxter gives, :mod:`.plausibility`) somewhere within the joint and velocity limits: such
+    parameters describe no Baxter (the example effects reach at most 0.6 × the limit, at s1), and
+    compensating them would swamp every residual. Checked at :data:`PLAUSIBILITY_STATES` states."""
+    arm = compensation.arm
+    rng = np.random.default_rng(0)
+    shape = (PLAUSIBILITY_STATES, len(arm.joint_names))
+    q = arm.lower_rad + (arm.upper_rad - arm.lower_rad) * rng.random(shape)
+    qd = arm.velocity_limit_rad_s * (2.0 * rng.random(shape) - 1.0)
+    qdd = PLAUSIBLE_QDD_RAD_S2 * (2.0 * rng.random(shape) - 1.0)
+    with np.errstate(over="ignore", invalid="ignore"):
+        tau = np.abs(arm.inverse_dynamics(q, qd, qdd) + compensation.torque(q, qd, qdd)).max(axis=0)
+    bound = PLAUSIBLE_FACTOR * arm.effort_limit_nm
+    over = np.flatnonzero(~(tau <= bound))
+    if over.size:
+        j = int(over[0])
+        raise EffectSpecError(
+            f"{where}: with these effects the model's torque at {arm.joint_names[j]} reaches {tau[j]:.3g} N·m within the "
+            f"joint and velocity limits, above {bound[j]:g} N·m ({PLAUSIBLE_FACTOR:g} × its effort limit, more than a real "
+            "Baxter gives); check the effects' parameters and units (baxter-dynamics diagnose writes plausible ones)"
+        )

@@ -16,6 +16,7 @@ Every OSError on the way (no permission, no space, a read-only filesystem) becom
 
 from __future__ import annotations
 
+import errno
 import os
 import shutil
 import tempfile
@@ -83,25 +84,30 @@ def check_outputs(targets: Sequence[str | os.PathLike[str]], *, replace: bool = 
 
 
 @contextmanager
-def staged_outputs(targets: Sequence[str | os.PathLike[str]]) -> Iterator[list[Path]]:
+def staged_outputs(targets: Sequence[str | os.PathLike[str]], *, replace: bool = True, option: str = "--out") -> Iterator[list[Path]]:
     """Fresh paths, one per target (same names), to write in the block; moved onto the targets together.
 
     targets: files in one or more folders (see :func:`check_outputs`, which should have been called
-    first). Existing targets are replaced only once every new file is in place.
+    first). replace: existing targets are replaced, only once every new file is in place; False
+    (a command without ``--force``) takes each destination atomically instead — a new folder by
+    one rename, which fails once another one is there, a file by a hard link, which fails once
+    another file is — so that an output another run wrote meanwhile (after :func:`check_outputs`)
+    is refused (OutputError naming it and ``option``), never replaced, and nothing of this run is left.
     """
     paths = [Path(t) for t in targets]
     stagings: dict[Path, Path] = {}  # folder -> its staging folder
+    tops: dict[Path, Path | None] = {}  # folder -> the outermost of it and its parents missing when staged
     try:
         where: dict[Path, Path] = {}  # target -> staged path
         for folder, files in _by_folder(paths).items():
             stagings[folder] = staging = _staging_folder(folder)
-            top = _first_missing(folder)
+            tops[folder] = top = _first_missing(folder)
             inner = staging if top is None else staging / folder.relative_to(top.parent)
             inner.mkdir(parents=True, exist_ok=True)
             where.update({target: inner / target.name for target in files})
         try:
             yield [where[p] for p in paths]
-            _commit(stagings, where)
+            _commit(stagings, where, None if replace else tops, option)
         except OSError as err:
             staged_as = {str(new): target for target, new in where.items()}
             shown = staged_as.get(str(err.filename), paths[0].parent if len(paths) > 1 else paths[0])
@@ -111,22 +117,36 @@ def staged_outputs(targets: Sequence[str | os.PathLike[str]]) -> Iterator[list[P
             shutil.rmtree(staging, ignore_errors=True)
 
 
-def _commit(stagings: dict[Path, Path], where: dict[Path, Path]) -> None:
+def _commit(stagings: dict[Path, Path], where: dict[Path, Path], exclusive: dict[Path, Path | None] | None, option: str) -> None:
     """Move every staged file onto its target, a new folder renamed into place whole; all or none
-    (moved files taken back, replaced ones restored, new folders moved back)."""
+    (moved files taken back, replaced ones restored, new folders moved back). exclusive: None to
+    replace existing targets; else each folder's outermost missing folder when it was staged, and
+    no target, nor such a folder, that exists now is replaced (:func:`staged_outputs`)."""
     for target in where:
         if target.is_dir():
             raise IsADirectoryError(21, "a folder is in the way", str(target))
     undo: list[tuple[Path, Path | None]] = []  # (what was put in place, where its predecessor went)
     try:
         for folder, staging in stagings.items():
-            top = _first_missing(folder)
+            top = _first_missing(folder) if exclusive is None else exclusive[folder]
             if top is not None:  # made whole: the outermost missing folder renamed into place
                 made = staging / top.name  # staging was made in top's parent, mirroring it
-                os.rename(made, top)
+                try:
+                    os.rename(made, top)  # onto a folder another run made meanwhile: fails unless it is empty
+                except OSError as err:
+                    if exclusive is not None and err.errno in (errno.EEXIST, errno.ENOTEMPTY, errno.ENOTDIR, errno.EISDIR):
+                        raise _taken(top, option) from err
+                    raise
                 undo.append((top, made))  # undone by renaming the folder back
                 continue
             for k, (target, new) in enumerate((t, n) for t, n in where.items() if t.parent == folder):
+                if exclusive is not None:
+                    try:
+                        os.link(new, target)  # fails if a file is there: never replaces one
+                    except FileExistsError as err:
+                        raise _taken(target, option) from err
+                    undo.append((target, None))
+                    continue
                 old = None
                 if target.exists():
                     old = staging / f".replaced-{k}"
@@ -142,3 +162,10 @@ def _commit(stagings: dict[Path, Path], where: dict[Path, Path]) -> None:
             elif placed.exists():
                 placed.unlink()
         raise
+
+
+def _taken(target: Path, option: str) -> OutputError:
+    return OutputError(
+        f"{target}: appeared while this command ran (another run writing there?); not replacing it, "
+        f"nothing was written: choose another {option} or pass --force"
+    )

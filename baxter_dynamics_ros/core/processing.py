@@ -38,7 +38,7 @@ def estimate_acceleration(recording: Recording, method: str = "zero_phase", cuto
         cutoff_hz = ESTIMATORS[method].default_cutoff_hz
     try:
         if method == "zero_phase":
-            return zero_phase_acceleration(recording.qd, recording.rate_hz, cutoff_hz)
+            return zero_phase_acceleration(recording.qd, recording.rate_hz, cutoff_hz, segments=recording.segments)
         return LowPassDifferentiator(cutoff_hz).run(recording.qd, recording.stamps_s)
     except ValueError as err:  # the estimators' own checks (cutoff range)
         raise RecordingError(

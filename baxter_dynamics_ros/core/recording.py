@@ -18,6 +18,7 @@ from ..errors import RecordingError
 from .joints import ARM_SIDES, JOINTS, arm_joint_names
 
 __all__ = [
+    "GAP_PERIODS",
     "MIN_MOTION_RAD",
     "MIN_FIT_S",
     "MIN_RECORDING_S",
@@ -43,6 +44,11 @@ MIN_RATE_FIT_CORRELATION = 0.5
 #: at least 200 samples.
 MIN_RECORDING_S = 2.0
 MIN_RECORDING_SAMPLES = 200
+#: A step between two samples longer than this many median sample periods is a gap (samples left
+#: out as implausible, messages lost): the offline filters treat the samples on either side as
+#: separate pieces (:attr:`Recording.segments`). A lost sample makes a step of 2 periods; the
+#: recordings' own jitter stays well below 1.5.
+GAP_PERIODS = 1.5
 #: The least data a fit takes in all (the diagnosis' training recordings, a calibration's), s.
 MIN_FIT_S = 10.0
 
@@ -219,6 +225,14 @@ class Recording:
     def rate_hz(self) -> float:
         """The median sample rate in Hz."""
         return 1e9 / float(np.median(np.diff(self.stamps_ns)))
+
+    @property
+    def segments(self) -> tuple[tuple[int, int], ...]:
+        """(start, stop) sample indices of the runs of evenly spaced samples: the recording split at
+        every step longer than :data:`GAP_PERIODS` median periods. One run without gaps."""
+        steps = np.diff(self.stamps_ns)
+        cuts = (np.flatnonzero(steps > GAP_PERIODS * np.median(steps)) + 1).tolist()
+        return tuple(zip([0, *cuts], [*cuts, len(self)]))
 
     @property
     def span_s(self) -> float:

@@ -24,6 +24,7 @@ in the few bins that hold a quantile (:func:`values_in_bins`, :func:`quantile_ed
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -145,28 +146,49 @@ def _angles(q: np.ndarray) -> tuple[tuple[str, np.ndarray], ...]:
 
 
 def gap_sums(
-    residual: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, rate_hz: float, angle_edges: np.ndarray, options: GapOptions = GapOptions()
+    residual: np.ndarray,
+    q: np.ndarray,
+    qd: np.ndarray,
+    qdd: np.ndarray,
+    rate_hz: float,
+    angle_edges: np.ndarray,
+    options: GapOptions = GapOptions(),
+    segments: Sequence[tuple[int, int]] | None = None,
 ) -> GapSums:
     """The sums of one recording's residual (N, 7) N·m at states q, qd, qdd (N, 7) sampled at rate_hz.
 
     angle_edges: (2, angle_bins + 1, 7) the edges of the ``angle`` and ``angle_s1`` bins
-    (:func:`quantile_edges`). Joint by joint: the temporaries of an hour-long recording are (N,)."""
+    (:func:`quantile_edges`); segments: the recording's runs between gaps
+    (:attr:`~baxter_dynamics_ros.core.recording.Recording.segments`), split into bands each on its
+    own, None for one. Joint by joint: the temporaries of an hour-long recording are (N,)."""
     residual = np.asarray(residual, dtype=float)
     if len(residual) < 16:
         raise ValueError(f"need at least 16 samples to summarise a residual, got {len(residual)}")
-    joints = [_joint_sums(residual[:, j], q[:, j], q[:, S1], qd[:, j], qdd[:, j], rate_hz, angle_edges[:, :, j], angle_edges[:, :, S1], options) for j in range(residual.shape[1])]
+    joints = [
+        _joint_sums(residual[:, j], q[:, j], q[:, S1], qd[:, j], qdd[:, j], rate_hz, angle_edges[:, :, j], angle_edges[:, :, S1], options, segments)
+        for j in range(residual.shape[1])
+    ]
     labels = joints[0][0]
     totals, count, band_r, band_r2 = (np.stack([joint[k] for joint in joints], axis=-1) for k in range(1, 5))
     return GapSums(len(residual), *totals, labels, count, band_r, band_r2)
 
 
 def _joint_sums(
-    r: np.ndarray, q: np.ndarray, q_s1: np.ndarray, qd: np.ndarray, qdd: np.ndarray, rate_hz: float, edges: np.ndarray, edges_s1: np.ndarray, o: GapOptions
+    r: np.ndarray,
+    q: np.ndarray,
+    q_s1: np.ndarray,
+    qd: np.ndarray,
+    qdd: np.ndarray,
+    rate_hz: float,
+    edges: np.ndarray,
+    edges_s1: np.ndarray,
+    o: GapOptions,
+    segments: Sequence[tuple[int, int]] | None = None,
 ) -> tuple[tuple[tuple[str, str], ...], np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """One joint's part of :func:`gap_sums` from its (N,) columns: the labels, (4,) Σ r, Σ r², the
     systematic part's and the rest's Σ², and per band its count, Σ r and Σ r²; edges (2, bins + 1) of
     its angle bins, edges_s1 those of s1 (the ``angle_s1`` bins' labels)."""
-    systematic = zero_phase_lowpass(r, rate_hz, o.systematic_cutoff_hz)
+    systematic = zero_phase_lowpass(r, rate_hz, o.systematic_cutoff_hz, segments=segments)
     squared = r**2
     totals = np.array([r.sum(), squared.sum(), (systematic**2).sum(), ((r - systematic) ** 2).sum()])
     del systematic

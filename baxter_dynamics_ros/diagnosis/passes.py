@@ -51,7 +51,7 @@ def check_recording(arm: ArmModel, label: str, rec: Recording, what: str) -> Non
             f"{label}: the effort of {', '.join(flat)} is the same in every sample: "
             "a torque sensor that does not respond; the diagnosis needs every joint's effort"
         )
-    tau = arm.inverse_dynamics(rec.q, rec.qd, zero_phase_acceleration(rec.qd, rec.rate_hz, min(4.0, 0.4 * rec.rate_hz)))
+    tau = arm.inverse_dynamics(rec.q, rec.qd, zero_phase_acceleration(rec.qd, rec.rate_hz, min(4.0, 0.4 * rec.rate_hz), segments=rec.segments))
     moving = np.ptp(tau, axis=0) > 0.0
     corr = [abs(float(np.corrcoef(rec.effort[:, j], tau[:, j])[0, 1])) for j in np.flatnonzero(moving)]
     if not corr or max(corr) < MIN_MODEL_CORRELATION:
@@ -133,9 +133,9 @@ def test_figures(
         for a in range(0, len(rec), CHUNK):
             b = min(len(rec), a + CHUNK)
             effects[a:b] = explained(arm, layout, p, columns, x, a, b)
-    qdd = zero_phase_acceleration(rec.qd, rec.rate_hz, min(5.0, 0.4 * rec.rate_hz))
-    raw = gap_sums(p.residual_raw, rec.q, rec.qd, qdd, rec.rate_hz, angle_edges)
-    filtered = gap_sums(p.residual, rec.q, rec.qd, qdd, rec.rate_hz, angle_edges)
+    qdd = zero_phase_acceleration(rec.qd, rec.rate_hz, min(5.0, 0.4 * rec.rate_hz), segments=rec.segments)
+    raw = gap_sums(p.residual_raw, rec.q, rec.qd, qdd, rec.rate_hz, angle_edges, segments=rec.segments)
+    filtered = gap_sums(p.residual, rec.q, rec.qd, qdd, rec.rate_hz, angle_edges, segments=rec.segments)
     pick = slice(None, None, stride)
     series = {"t_s": p.stamps_s[pick], "baseline": p.residual_raw[pick], "filtered": p.residual[pick], "final": (p.residual - effects)[pick]}
     return TestFigures(raw, filtered, series, float(p.stamps_s[-1] + 1.0 / rec.rate_hz))

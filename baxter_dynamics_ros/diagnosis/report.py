@@ -304,12 +304,13 @@ def effects_yaml(result: DiagnosisResult) -> str:
     )
 
 
-def write_diagnosis(result: DiagnosisResult, out_dir: str | os.PathLike[str]) -> dict[str, Path]:
-    """Write every output file into out_dir (created if needed; its parent must exist), all or
-    none of them (:mod:`~baxter_dynamics_ros.core.output_files`); returns them by name."""
+def write_diagnosis(result: DiagnosisResult, out_dir: str | os.PathLike[str], *, replace: bool = True) -> dict[str, Path]:
+    """Write every output file into out_dir (created if needed, with its parents), all or none of
+    them (:mod:`~baxter_dynamics_ros.core.output_files`); returns them by name. replace: False
+    refuses an earlier diagnosis' files, also one that another run wrote while this one worked."""
     out = Path(out_dir)
     targets = {name: out / name for name in OUTPUT_FILES}
-    with staged_outputs(list(targets.values())) as staged:
+    with staged_outputs(list(targets.values()), replace=replace) as staged:
         _write_all(result, dict(zip(targets, staged)))
     return targets
 

@@ -161,7 +161,7 @@ class Prepared:
 def prepare(arm: ArmModel, rec: Recording, cutoff_hz: float) -> Prepared:
     """The arrays of ``rec`` with q̇ low-passed at cutoff_hz before differentiating."""
     stamps = rec.stamps_s
-    qdd = zero_phase_acceleration(rec.qd, rec.rate_hz, cutoff_hz)
+    qdd = zero_phase_acceleration(rec.qd, rec.rate_hz, cutoff_hz, segments=rec.segments)
     tau = arm.inverse_dynamics(rec.q, rec.qd, qdd)
     residual = rec.effort - tau
     delay_columns = np.gradient(tau, stamps, axis=0)
@@ -272,7 +272,7 @@ def cutoff_scores(arm: ArmModel, rec: Recording) -> tuple[np.ndarray, tuple[np.n
     for cutoff in CUTOFF_GRID_HZ:
         if cutoff >= 0.45 * rec.rate_hz:
             break
-        qdd = zero_phase_acceleration(rec.qd, rec.rate_hz, cutoff)
+        qdd = zero_phase_acceleration(rec.qd, rec.rate_hz, cutoff, segments=rec.segments)
         sse.append(np.sum((rec.effort - arm.inverse_dynamics(rec.q, rec.qd, qdd)) ** 2, axis=0))
     return raw, tuple(sse)
 

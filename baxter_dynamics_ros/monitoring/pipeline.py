@@ -8,8 +8,9 @@ into G(q), τ and the residual, or into a :class:`~baxter_dynamics_ros.core.samp
 1. skipped if any of the arm's q, q̇ or effort values is NaN or ±inf (``non_finite_input``);
 2. skipped if it is one no real Baxter can give (``implausible_input``): a joint angle beyond the
    joint limits by more than :data:`POSITION_MARGIN_RAD`, a speed above :data:`PLAUSIBLE_FACTOR`
-   times the joint's velocity limit, an effort above that factor times its effort limit (the
-   model file's limits, the URDF's: 1.5 rad/s and 50–100 N·m at s0–e1, 4 rad/s and 15 N·m at the
+   times the joint's velocity limit, an effort above that factor times its effort limit — the
+   bounds of :mod:`baxter_dynamics_ros.core.plausibility`, which the offline readers apply too
+   (the model file's limits, the URDF's: 1.5 rad/s and 50–100 N·m at s0–e1, 4 rad/s and 15 N·m at the
    wrist; the four real recordings reach 1.34 times a velocity limit and 0.31 times an effort
    limit). Nothing of such a sample reaches a filter or the observer: the next samples give the
    outputs they would have given without it;
@@ -53,6 +54,7 @@ from ..core.acceleration import CAUSAL_ESTIMATORS, FirstDifference, LowPassDiffe
 from ..core.arm_model import ArmModel
 from ..core.compensation import Compensation
 from ..core.joints import JOINTS as N
+from ..core.plausibility import PLAUSIBLE_FACTOR, POSITION_MARGIN_RAD, plausibility_bounds
 from ..core.samples import ArmSample, ModelTorques, SkipReason
 from ..errors import CollisionError, SettingsError
 from .observer import DEFAULT_GAIN_1_S, MomentumObserver
@@ -63,11 +65,6 @@ __all__ = [
     "ResidualPipeline",
     "make_estimator",
 ]
-
-#: How far beyond a joint limit a measured angle may be, rad (5.7°: past the hard stops).
-POSITION_MARGIN_RAD = 0.1
-#: A measured speed (effort) may be at most this many times the joint's velocity (effort) limit.
-PLAUSIBLE_FACTOR = 3.0
 
 
 def make_estimator(name: str, cutoff_hz: float) -> LowPassDifferentiator | FirstDifference:
@@ -160,14 +157,9 @@ class ResidualPipeline:
         self._last_stamp_ns: int | None = None  # of the last sample taken in (stamps must increase from it)
         self._last_q: np.ndarray | None = None  # its positions, which q̇ is differenced from
         self._estimated_ns: int | None = None  # stamp of the last q̇ the estimator (and the observer) took
-        # Plausibility bounds (module docstring, step 2): q within [q_low, q_high], |q̇| ≤ qd_max,
-        # |effort| ≤ effort_max; one (6, 7) array, rows low and high of q, q̇, effort in turn.
-        qd_max = PLAUSIBLE_FACTOR * self.arm.velocity_limit_rad_s
-        effort_max = PLAUSIBLE_FACTOR * self.arm.effort_limit_nm
-        self._bounds = np.array(
-            [self.arm.lower_rad - POSITION_MARGIN_RAD, self.arm.upper_rad + POSITION_MARGIN_RAD, -qd_max, qd_max, -effort_max, effort_max],
-            dtype=np.float64,
-        )
+        # Plausibility bounds (module docstring, step 2; the core's, which the offline readers apply
+        # too): one (6, 7) array, rows low and high of q, q̇, effort in turn.
+        self._bounds = np.array(plausibility_bounds(self.arm))  # writable: the compiled checks take plain arrays
         self._workspace = lagrange_euler.sample_workspace(self.arm.dh, self.arm.pseudo_inertias)
         self._gravity = np.ascontiguousarray(self.arm.gravity_m_s2, dtype=np.float64)
         self._warm_up()

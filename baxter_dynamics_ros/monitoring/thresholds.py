@@ -12,7 +12,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import yaml
@@ -20,9 +20,13 @@ import yaml
 from ..core.joints import JOINT_SUFFIXES
 from ..core.joints import JOINTS as N
 from ..core.output_files import staged_outputs
+from ..core.plausibility import PLAUSIBLE_FACTOR
 from ..core.yaml_files import read_yaml
 from ..errors import CollisionError
 from .observer import DEFAULT_GAIN_1_S, check_effort_delay
+
+if TYPE_CHECKING:
+    from ..core.arm_model import ArmModel
 
 __all__ = [
     "DEFAULT_CONSECUTIVE",
@@ -30,6 +34,7 @@ __all__ = [
     "check_consecutive",
     "check_time_constant",
     "read_thresholds",
+    "require_plausible",
     "write_thresholds",
 ]
 
@@ -142,13 +147,37 @@ class Thresholds:
             raise CollisionError(f"{where}: {err}") from err
 
 
-def write_thresholds(path: str | os.PathLike[str], thresholds: Thresholds) -> None:
-    """Write ``thresholds`` as YAML (thresholds.yaml), whole or not at all (:mod:`~baxter_dynamics_ros.core.output_files`)."""
-    with staged_outputs([Path(path)]) as (staged,), open(staged, "w", encoding="utf-8") as stream:
+def write_thresholds(path: str | os.PathLike[str], thresholds: Thresholds, *, replace: bool = True) -> None:
+    """Write ``thresholds`` as YAML (thresholds.yaml), whole or not at all (:mod:`~baxter_dynamics_ros.core.output_files`;
+    replace: False refuses a file that is there, also one written meanwhile)."""
+    with staged_outputs([Path(path)], replace=replace) as (staged,), open(staged, "w", encoding="utf-8") as stream:
         stream.write("# Collision thresholds a + b|q̇| per joint, from `baxter-dynamics calibrate`.\n")
         yaml.safe_dump(thresholds.to_dict(), stream, sort_keys=False, allow_unicode=True)
 
 
-def read_thresholds(path: str | os.PathLike[str]) -> Thresholds:
-    """The :class:`Thresholds` of a YAML file written by :func:`write_thresholds`."""
-    return Thresholds.from_dict(read_yaml(path, CollisionError, "thresholds file"), str(path))
+def read_thresholds(path: str | os.PathLike[str], arm: ArmModel | None = None) -> Thresholds:
+    """The :class:`Thresholds` of a YAML file written by :func:`write_thresholds`; with ``arm``, held
+    to its plausible effort (:func:`require_plausible`)."""
+    thresholds = Thresholds.from_dict(read_yaml(path, CollisionError, "thresholds file"), str(path))
+    if arm is not None:
+        require_plausible(thresholds, arm, str(path))
+    return thresholds
+
+
+def require_plausible(thresholds: Thresholds, arm: ArmModel, where: str) -> None:
+    """Refuse (CollisionError) thresholds that no real collision could cross: at a joint's velocity
+    limit, a + b·q̇ above :data:`~baxter_dynamics_ros.core.plausibility.PLAUSIBLE_FACTOR` times its
+    effort limit (150–300 N·m at s0–e1, 45 N·m at the wrist), the largest effort a real Baxter gives
+    (:mod:`baxter_dynamics_ros.core.plausibility`). Calibrated thresholds lie far below (the
+    simulated recordings': 57 N·m at s1, under 20 N·m elsewhere); above it, detection at that joint
+    would be silently off."""
+    at_limit = thresholds.at(arm.velocity_limit_rad_s)
+    bound = PLAUSIBLE_FACTOR * arm.effort_limit_nm
+    over = np.flatnonzero(~(at_limit <= bound))
+    if over.size:
+        j = int(over[0])
+        raise CollisionError(
+            f"{where}: the {JOINT_SUFFIXES[j]} threshold at its velocity limit is {at_limit[j]:.3g} N·m, above "
+            f"{bound[j]:g} N·m ({PLAUSIBLE_FACTOR:g} × the joint's effort limit, more than a real Baxter gives): "
+            "no collision could ever be detected there; calibrate again (baxter-dynamics calibrate, or ~/calibrate)"
+        )

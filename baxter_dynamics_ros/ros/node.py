@@ -210,7 +210,7 @@ class DynamicsNode(Node):
                 f"compensating {', '.join(e.name for e in compensation.effects) or 'nothing'} from {settings.effects_file}"
                 + (f"; not compensated live: {', '.join(compensation.ignored)}" if compensation.ignored else "")
             )
-        thresholds = read_thresholds(settings.thresholds_file) if settings.thresholds_file else None
+        thresholds = read_thresholds(settings.thresholds_file, arm) if settings.thresholds_file else None
         if thresholds is not None and not (thresholds.gain_1_s == settings.observer_gain_1_s).all():
             self.get_logger().warn(
                 f"{settings.thresholds_file} was calibrated with observer gains {thresholds.gain_1_s.tolist()} 1/s, "

@@ -97,45 +97,6 @@ def test_an_absurd_sample_is_skipped_and_leaves_no_trace(node: LiveNode, kind: s
     assert int(samples.stamps_ns[ABSURD]) not in published
 
 
-# --------------------------------------------------------------------------- non-finite state
-@pytest.fixture(scope="module")
-def absurd_model_node(ros_client, node_processes, tmp_path_factory: pytest.TempPathFactory) -> LiveNode:
-    """A node compensating an absurd effects file: viscous damping 1e308 N·m·s/rad at every joint,
-    so that plausible speeds give torques at the edge of float64 (1.4 rad/s) or beyond it (2 rad/s)."""
-    effects = tmp_path_factory.mktemp("fx") / "effects.yaml"
-    effects.write_text("arm: right\neffects:\n  viscous_friction: {damping_nm_s_rad: [1.0e+308, 1.0e+308, 1.0e+308, 1.0e+308, 1.0e+308, 1.0e+308, 1.0e+308]}\n")
-    return start_node(ros_client, node_processes, "/overflow", "-p", f"effects_file:={effects}")
-
-
-def _steady(samples: Samples, speed_rad_s: float) -> list:
-    """The samples' messages with every right-arm joint at ``speed_rad_s``."""
-    for j in RIGHT.joint_names:
-        samples.velocity[:, JOINTS.index(j)] = speed_rad_s
-    return [samples.message(k) for k in range(len(samples.stamps_ns))]
-
-
-def test_a_non_finite_state_is_reset_counted_and_never_reported_ok(absurd_model_node: LiveNode) -> None:
-    node = absurd_model_node
-    before = node.idle_report()[2]
-    start = len(node.diagnostics.messages)
-    node.send(_steady(Samples(30, seed=21), 2.0))  # τ = 2e308: inf
-    level, message, values = node.report(start, lambda s: s[2]["samples_received"] != "0" and s[2]["samples_published"] == "0")
-    assert level == 2 and "non_finite_model" in message
-    after = node.idle_report()[2]
-    skipped = int(after["skipped_total.non_finite_model"]) - int(before["skipped_total.non_finite_model"])
-    resets = int(after["resets_total.non_finite_state"]) - int(before["resets_total.non_finite_state"])
-    assert skipped == resets == 30
-
-    start = len(node.diagnostics.messages)
-    samples = Samples(30, seed=22)
-    node.send(_steady(samples, 1.4))  # τ = 1.4e308: finite, but the residual's square is not
-    node.received("residual", samples.stamps_ns)
-    level, message, values = node.report(start, lambda s: s[2]["residuals_published"] != "0")
-    assert level == 1 and "residual RMS not finite" in message, message
-    assert "inf" in {values[f"residual_rms_nm.{j}"] for j in RIGHT.joint_names}
-    node.process.check_alive()
-
-
 # --------------------------------------------------------------------------- files and parameters
 def run_node(*ros_args: str) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "baxter_dynamics_ros.ros.node", "--ros-args", *ros_args], capture_output=True, text=True, timeout=60)
@@ -156,6 +117,30 @@ def test_a_binary_or_empty_file_parameter_stops_the_node_with_one_error(ros_doma
     path.write_bytes(content)
     line = the_error(run_node("-p", f"{parameter}:={path}"))
     assert line.startswith(f"ERROR: {path}: the {what} is ") and ("not UTF-8" in line or "empty" in line)
+
+
+#: Files no real Baxter could have produced (issue 22 item 1): calibrate once wrote the s1 threshold
+#: of the first file from one effort sample of 1e30 N·m; the damping of the second overflows τ.
+ABSURD_FILES = {
+    "thresholds_file": (
+        "offset_nm: {s0: 5.4, s1: 1.2e+27, e0: 3.8, e1: 2.9, w0: 0.42, w1: 0.91, w2: 0.16}\n"
+        "slope_nm_s_rad: {s0: 9.1, s1: 0.0, e0: 0.0, e1: 0.92, w0: 0.68, w1: 0.71, w2: 0.07}\n",
+        "the s1 threshold at its velocity limit is 1.2e+27 N·m, above 300 N·m (3 × the joint's effort limit",
+    ),
+    "effects_file": (
+        "arm: right\neffects:\n  viscous_friction: {damping_nm_s_rad: [1.0e+308, 1.0e+308, 1.0e+308, 1.0e+308, 1.0e+308, 1.0e+308, 1.0e+308]}\n",
+        "with these effects the model's torque at right_s0 reaches 1.5e+308 N·m within the joint and velocity limits, above 150 N·m",
+    ),
+}
+
+
+@pytest.mark.parametrize("parameter", sorted(ABSURD_FILES))
+def test_a_file_beyond_what_a_real_baxter_gives_stops_the_node_with_one_error(ros_domain, tmp_path: Path, parameter: str) -> None:
+    text, expected = ABSURD_FILES[parameter]
+    path = tmp_path / "file.yaml"
+    path.write_text(text)
+    line = the_error(run_node("-p", f"{parameter}:={path}"))
+    assert line.startswith(f"ERROR: {path}: {expected}"), line
 
 
 @pytest.mark.parametrize(
