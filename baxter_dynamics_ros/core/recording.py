@@ -18,6 +18,7 @@ from ..errors import RecordingError
 from .joints import ARM_SIDES, JOINTS, arm_joint_names
 
 __all__ = [
+    "GAP_JITTER_SDS",
     "GAP_PERIODS",
     "MIN_MOTION_RAD",
     "MIN_FIT_S",
@@ -47,8 +48,12 @@ MIN_RECORDING_SAMPLES = 200
 #: A step between two samples longer than this many median sample periods is a gap (samples left
 #: out as implausible, messages lost): the offline filters treat the samples on either side as
 #: separate pieces (:attr:`Recording.segments`). A lost sample makes a step of 2 periods; the
-#: recordings' own jitter stays well below 1.5.
+#: shared recordings' own jitter stays well below 1.5.
 GAP_PERIODS = 1.5
+#: Where the stamps jitter (receive times of a loaded machine), a gap must also stand this many
+#: robust standard deviations (1.4826 · MAD) of the steps above the median step: jitter alone then
+#: cuts a recording about once in 10⁶ steps instead of into pieces too short to filter.
+GAP_JITTER_SDS = 6.0
 #: The least data a fit takes in all (the diagnosis' training recordings, a calibration's), s.
 MIN_FIT_S = 10.0
 
@@ -229,9 +234,13 @@ class Recording:
     @property
     def segments(self) -> tuple[tuple[int, int], ...]:
         """(start, stop) sample indices of the runs of evenly spaced samples: the recording split at
-        every step longer than :data:`GAP_PERIODS` median periods. One run without gaps."""
-        steps = np.diff(self.stamps_ns)
-        cuts = (np.flatnonzero(steps > GAP_PERIODS * np.median(steps)) + 1).tolist()
+        every step longer than :data:`GAP_PERIODS` median periods and :data:`GAP_JITTER_SDS` robust
+        SDs of the steps above the median. One run without gaps."""
+        steps = np.diff(self.stamps_ns).astype(np.float64)
+        median = float(np.median(steps)) if steps.size else 0.0
+        jitter = 1.4826 * float(np.median(np.abs(steps - median))) if steps.size else 0.0
+        limit = median + max((GAP_PERIODS - 1.0) * median, GAP_JITTER_SDS * jitter)
+        cuts = (np.flatnonzero(steps > limit) + 1).tolist()
         return tuple(zip([0, *cuts], [*cuts, len(self)]))
 
     @property

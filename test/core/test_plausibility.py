@@ -52,3 +52,16 @@ def test_a_recording_more_than_a_tenth_implausible_is_refused() -> None:
     effort[::9, 0] = 1e30  # 45 of 400: 11 %
     with pytest.raises(RecordingError, match="45 of 400 samples are implausible .*more than 10%"):
         plausible_recording("f.csv", "right", stamps, q, qd, effort)
+
+
+def test_jittery_stamps_are_cut_at_a_real_gap_only() -> None:
+    """Receive-time stamps jittering by 25 % of the period (a loaded machine) make steps of 1.5
+    periods every few hundred samples; only the lost run of three samples is a gap."""
+    stamps, q, qd, effort = states(2000)
+    jitter = np.random.default_rng(3).normal(0.0, 0.25 * 1e7, len(stamps)).astype(np.int64)
+    stamps = np.sort(stamps + jitter)
+    keep = np.r_[0:1200, 1203:2000]
+    steps = np.diff(stamps[keep])
+    assert np.count_nonzero(steps > 1.5 * np.median(steps)) > 3  # the plain 1.5-period rule would cut here
+    rec = plausible_recording("f.csv", "right", stamps[keep], q[keep], qd[keep], effort[keep])
+    assert rec.segments == ((0, 1200), (1200, 1997))
