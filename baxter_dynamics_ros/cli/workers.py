@@ -7,8 +7,13 @@ way of running. Worker processes are spawned (numba's and OpenMP's threads do no
 of a process that runs them, and a fork server would be one more process holding the imports), run
 their numba kernels and BLAS on one thread each (:func:`one_thread`: the processes already share
 the cores; more threads only contend) and hand their freed heap back after each task.
-``--scheduler local`` starts a one-machine dask cluster on 127.0.0.1 without a dashboard, its
-workers on one thread each too, and closes it at the end, also on error. A worker's
+On an interrupt (Ctrl-C, SIGTERM) the worker processes are terminated, not waited for.
+``--scheduler`` takes ``local`` or ``tcp://HOST:PORT``; a scheduler that does not answer as dask
+does within :data:`CONNECT_TIMEOUT_S` is an error. ``local`` starts a one-machine dask cluster on
+127.0.0.1 without a dashboard or any HTTP server (dask starts them with the scheduler and each
+worker, on ports chosen at random on 127.0.0.1, and they are stopped at once), its workers' scratch
+in a temporary folder of its own, its workers on one thread each too, and closes it at the end,
+also on error. A worker's
 error (a corrupt file) comes back as the error it raised; a worker that dies, or a scheduler that
 cannot be reached, is a :class:`~baxter_dynamics_ros.errors.WorkerError`. No worker imports rclpy.
 """
@@ -18,6 +23,8 @@ from __future__ import annotations
 import argparse
 import ctypes
 import os
+import re
+import tempfile
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future
 from contextlib import ExitStack, contextmanager
@@ -27,7 +34,12 @@ from typing import Any
 from ..diagnosis.sources import Mapper, serial_map
 from ..errors import WorkerError
 
-__all__ = ["add_worker_arguments", "default_jobs", "file_mapper", "one_thread"]
+__all__ = ["CONNECT_TIMEOUT_S", "add_worker_arguments", "default_jobs", "file_mapper", "one_thread"]
+
+#: how long a --scheduler ADDRESS has to answer as a dask scheduler, s
+CONNECT_TIMEOUT_S = 5.0
+_ADDRESS = re.compile(r"tcp://(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9._-]+):\d{1,5}")
+_ADDRESS_FORMS = "'local' or tcp://HOST:PORT (e.g. tcp://10.0.0.5:8786)"
 
 def default_jobs() -> int:
     """The cores this process may run on."""
@@ -61,8 +73,9 @@ def add_worker_arguments(parser: argparse.ArgumentParser, cluster: bool = True) 
         return
     parser.add_argument(
         "--scheduler", metavar="ADDRESS",
-        help="run the per-file work on a dask.distributed cluster at ADDRESS (e.g. tcp://host:8786; the files must be at the same "
-        "paths on its workers: a shared filesystem), or 'local' for a cluster of --jobs worker processes on this machine (127.0.0.1, no dashboard)",
+        help="run the per-file work on a dask.distributed cluster at ADDRESS (tcp://HOST:PORT, e.g. tcp://host:8786; the files must be "
+        f"at the same paths on its workers: a shared filesystem; it must answer within {CONNECT_TIMEOUT_S:g} s), or 'local' for a "
+        "cluster of --jobs worker processes on this machine (127.0.0.1, no dashboard)",
     )  # fmt: skip
 
 
@@ -83,6 +96,10 @@ def file_mapper(jobs: int | None, scheduler: str | None) -> Iterator[Mapper]:
         executor = ProcessPoolExecutor(max_workers=jobs, mp_context=context, initializer=one_thread)
         try:
             yield partial(_pool_map, executor)
+        except KeyboardInterrupt:  # also SIGTERM (cli.main): stop the workers now, not after their file
+            for process in list((getattr(executor, "_processes", None) or {}).values()):  # public from Python 3.14 only
+                process.terminate()
+            raise
         finally:
             executor.shutdown(wait=True, cancel_futures=True)
 
@@ -118,19 +135,38 @@ def _dask_client(address: str, jobs: int) -> Iterator[Any]:
         from dask.distributed import Client, LocalCluster
     except ImportError as err:
         raise WorkerError(f"--scheduler needs dask.distributed ({err}); install the package's 'cluster' extra") from err
+    import dask
+
+    if address != "local" and not _ADDRESS.fullmatch(address):
+        raise WorkerError(f"--scheduler {address!r}: expected {_ADDRESS_FORMS}")
     with ExitStack() as stack:
+        timeout = f"{CONNECT_TIMEOUT_S}s"
+        settings = {"distributed.comm.timeouts.connect": timeout, "distributed.comm.timeouts.tcp": timeout}
         try:
             if address == "local":
+                scratch = stack.enter_context(tempfile.TemporaryDirectory(prefix="baxter-dynamics-dask-"))
+                stack.enter_context(dask.config.set({**settings, "temporary-directory": scratch}))
                 cluster = stack.enter_context(
-                    LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None)
-                )
+                    LocalCluster(
+                        n_workers=jobs, threads_per_worker=1, processes=True, host="127.0.0.1", local_directory=scratch,
+                        dashboard_address="127.0.0.1:0", scheduler_kwargs={"dashboard": False},
+                    )
+                )  # fmt: skip
+                cluster.scheduler.http_server.stop()
                 client = stack.enter_context(Client(cluster))
+                client.run(_no_http)
                 client.run(one_thread)
             else:
-                client = stack.enter_context(Client(address, timeout=10))
+                stack.enter_context(dask.config.set(settings))
+                client = stack.enter_context(Client(address, timeout=CONNECT_TIMEOUT_S))
         except (OSError, TimeoutError) as err:
-            raise WorkerError(f"cannot reach the dask scheduler at {address}: {err}") from err
+            raise WorkerError(f"cannot reach a dask scheduler at {address} within {CONNECT_TIMEOUT_S:g} s: {err}") from err
         yield client
+
+
+def _no_http(dask_worker: Any) -> None:
+    """Stop a dask worker's HTTP server (metrics pages nobody reads here)."""
+    dask_worker.http_server.stop()
 
 
 def _dask_map(client, function: Callable[[Any], Any], items: Sequence[Any]) -> list:
