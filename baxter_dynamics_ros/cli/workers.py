@@ -10,10 +10,9 @@ the cores; more threads only contend) and hand their freed heap back after each 
 On an interrupt (Ctrl-C, SIGTERM) the worker processes are terminated, not waited for.
 ``--scheduler`` takes ``local`` or ``tcp://HOST:PORT``; a scheduler that does not answer as dask
 does within :data:`CONNECT_TIMEOUT_S` is an error. ``local`` starts a one-machine dask cluster on
-127.0.0.1 without a dashboard or any HTTP server (dask starts them with the scheduler and each
-worker, on ports chosen at random on 127.0.0.1, and they are stopped at once), its workers' scratch
-in a temporary folder of its own, its workers on one thread each too, and closes it at the end,
-also on error. A worker's
+127.0.0.1 without any HTTP server (:mod:`.local_cluster`), its workers' scratch in a temporary
+folder of its own, its workers on one thread each too, and closes it at the end, also on error and
+interrupt. A worker's
 error (a corrupt file) comes back as the error it raised; a worker that dies, or a scheduler that
 cannot be reached, is a :class:`~baxter_dynamics_ros.errors.WorkerError`. No worker imports rclpy.
 """
@@ -34,12 +33,21 @@ from typing import Any
 from ..diagnosis.sources import Mapper, serial_map
 from ..errors import WorkerError
 
-__all__ = ["CONNECT_TIMEOUT_S", "add_worker_arguments", "default_jobs", "file_mapper", "one_thread"]
+__all__ = ["CONNECT_TIMEOUT_S", "add_worker_arguments", "check_scheduler", "default_jobs", "file_mapper", "one_thread"]
 
 #: how long a --scheduler ADDRESS has to answer as a dask scheduler, s
 CONNECT_TIMEOUT_S = 5.0
-_ADDRESS = re.compile(r"tcp://(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9._-]+):\d{1,5}")
+_ADDRESS = re.compile(r"tcp://(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9._-]+):(\d{1,5})")
 _ADDRESS_FORMS = "'local' or tcp://HOST:PORT (e.g. tcp://10.0.0.5:8786)"
+
+
+def check_scheduler(address: str) -> None:
+    """Refuse a ``--scheduler`` that is neither ``local`` nor ``tcp://HOST:PORT`` (dask would raise
+    ValueError on some, take others for a file to load)."""
+    match = _ADDRESS.fullmatch(address)
+    if address != "local" and (match is None or not 0 < int(match.group(2)) < 65536):
+        raise WorkerError(f"--scheduler {address!r}: expected {_ADDRESS_FORMS}")
+
 
 def default_jobs() -> int:
     """The cores this process may run on."""
@@ -80,11 +88,14 @@ def add_worker_arguments(parser: argparse.ArgumentParser, cluster: bool = True) 
 
 
 @contextmanager
-def file_mapper(jobs: int | None, scheduler: str | None) -> Iterator[Mapper]:
-    """The mapper for ``--jobs`` (None: every core) and ``--scheduler``; whatever it started is stopped on leaving."""
+def file_mapper(jobs: int | None, scheduler: str | None, scratch: str | None = None) -> Iterator[Mapper]:
+    """The mapper for ``--jobs`` (None: every core) and ``--scheduler``; whatever it started is stopped
+    on leaving. scratch: the run's scratch folder, where ``--scheduler local`` puts its workers'
+    (None: a temporary folder of its own)."""
     jobs = default_jobs() if jobs is None else jobs
     if scheduler is not None:
-        with _dask_client(scheduler, jobs) as client:
+        check_scheduler(scheduler)
+        with _dask_client(scheduler, jobs, scratch) as client:
             yield partial(_dask_map, client)
     elif jobs == 1:
         yield serial_map
@@ -130,43 +141,59 @@ def _trimmed(function: Callable[[Any], Any], item: Any) -> Any:
 
 
 @contextmanager
-def _dask_client(address: str, jobs: int) -> Iterator[Any]:
+def _dask_client(address: str, jobs: int, scratch: str | None) -> Iterator[Any]:
     try:
-        from dask.distributed import Client, LocalCluster
+        from dask.distributed import Client
     except ImportError as err:
         raise WorkerError(f"--scheduler needs dask.distributed ({err}); install the package's 'cluster' extra") from err
     import dask
 
-    if address != "local" and not _ADDRESS.fullmatch(address):
-        raise WorkerError(f"--scheduler {address!r}: expected {_ADDRESS_FORMS}")
     with ExitStack() as stack:
-        timeout = f"{CONNECT_TIMEOUT_S}s"
-        settings = {"distributed.comm.timeouts.connect": timeout, "distributed.comm.timeouts.tcp": timeout}
+        settings = {"distributed.comm.timeouts.connect": f"{CONNECT_TIMEOUT_S}s"}
         try:
             if address == "local":
-                scratch = stack.enter_context(tempfile.TemporaryDirectory(prefix="baxter-dynamics-dask-"))
+                from .local_cluster import local_cluster
+
+                where = scratch if scratch is not None else stack.enter_context(tempfile.TemporaryDirectory(prefix="baxter-dynamics-"))
+                scratch = tempfile.mkdtemp(prefix="dask-", dir=where)  # removed with where
                 stack.enter_context(dask.config.set({**settings, "temporary-directory": scratch}))
-                cluster = stack.enter_context(
-                    LocalCluster(
-                        n_workers=jobs, threads_per_worker=1, processes=True, host="127.0.0.1", local_directory=scratch,
-                        dashboard_address="127.0.0.1:0", scheduler_kwargs={"dashboard": False},
-                    )
-                )  # fmt: skip
-                cluster.scheduler.http_server.stop()
+                cluster = stack.enter_context(local_cluster(jobs, scratch))
                 client = stack.enter_context(Client(cluster))
-                client.run(_no_http)
                 client.run(one_thread)
             else:
                 stack.enter_context(dask.config.set(settings))
+                _probe(address)
                 client = stack.enter_context(Client(address, timeout=CONNECT_TIMEOUT_S))
         except (OSError, TimeoutError) as err:
             raise WorkerError(f"cannot reach a dask scheduler at {address} within {CONNECT_TIMEOUT_S:g} s: {err}") from err
         yield client
 
 
-def _no_http(dask_worker: Any) -> None:
-    """Stop a dask worker's HTTP server (metrics pages nobody reads here)."""
-    dask_worker.http_server.stop()
+def _probe(address: str) -> None:
+    """Refuse, within CONNECT_TIMEOUT_S, an address where no dask scheduler answers: dask's own
+    handshake waits for ever on a service that accepts the connection and says nothing, and takes
+    what another service says for the length of a message to allocate (issue 22 item 3)."""
+    import asyncio
+
+    from distributed.comm import connect
+
+    async def identity() -> Any:
+        comm = await connect(address, timeout=CONNECT_TIMEOUT_S)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    try:
+        answer = asyncio.run(asyncio.wait_for(identity(), CONNECT_TIMEOUT_S))
+    except (OSError, TimeoutError, asyncio.TimeoutError) as err:
+        raise WorkerError(f"cannot reach a dask scheduler at {address} within {CONNECT_TIMEOUT_S:g} s ({str(err) or type(err).__name__})") from err
+    except Exception as err:  # whatever the other service sent, read as a dask message
+        raise WorkerError(f"{address} does not answer as a dask scheduler does ({type(err).__name__}); is it the scheduler's address?") from err
+    if not (isinstance(answer, dict) and answer.get("type") == "Scheduler"):
+        kind = answer.get("type") if isinstance(answer, dict) else None
+        raise WorkerError(f"{address} is not a dask scheduler ({f'a {kind}' if kind else 'an unknown service'}); give the scheduler's address")
 
 
 def _dask_map(client, function: Callable[[Any], Any], items: Sequence[Any]) -> list:

@@ -1,0 +1,153 @@
+"""Bad input, second round (issue 22 items 2, 3, 5, 8): absurd values, schedulers that are not
+dask, SIGTERM and ``--scheduler local``, as a user meets them with the installed command.
+
+Each case runs ``baxter-dynamics`` (the console script beside this interpreter) in a subprocess with
+``TMPDIR`` a folder of the test's own, and checks the exit code, the one ``ERROR:`` line (no
+traceback), what was (or was not) written and what is left running. The ROS variables of the run
+(local discovery, a domain id of this module's own, ``ROS_LOG_DIR`` in a temporary folder) come
+from ``conftest.py``.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import psutil
+import pytest
+from cli_runs import REPO, listing, the_error
+from simulated_files import simulated, write_states
+
+from baxter_dynamics_ros.cli.workers import CONNECT_TIMEOUT_S
+from baxter_dynamics_ros.simulation.spec import MAX_DURATION_S, MAX_RATE_HZ
+
+COMMAND = Path(sys.executable).with_name("baxter-dynamics")
+#: Start-up of the command on a busy machine (imports of numpy, numba, dask), s.
+START_S = 30.0
+
+
+@pytest.fixture(scope="module", autouse=True)
+def own_domain(ros_domain: int) -> int:
+    return ros_domain
+
+
+def environment(tmp: Path) -> dict[str, str]:
+    """This process' environment (the ROS variables of the run) with TMPDIR the folder tmp."""
+    tmp.mkdir(exist_ok=True)
+    return {**os.environ, "TMPDIR": str(tmp)}
+
+
+def run(*args: str | Path, tmp: Path, timeout_s: float = 300.0) -> subprocess.CompletedProcess:
+    """The command with args, TMPDIR the folder tmp; output captured as text."""
+    return subprocess.run([str(COMMAND), *map(str, args)], cwd=REPO, capture_output=True, text=True, timeout=timeout_s, env=environment(tmp))
+
+
+@pytest.fixture(scope="module")
+def recordings(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """Simulated right-arm recordings as CSV tables: ``train`` (12 s), ``test`` (4 s), ``absurd``
+    (the test data with one effort of 1e308 N·m at s1) and ``short`` (1 s, too short to diagnose)."""
+    folder = tmp_path_factory.mktemp("rec")
+    paths = {name: write_states(folder / f"{name}.csv", simulated(duration_s, seed)) for name, duration_s, seed in (("train", 12.0, 1), ("test", 4.0, 2), ("short", 1.0, 3))}
+    header, *rows = paths["test"].read_text().splitlines()
+    column = header.split(",").index("effort_right_s1")
+    cells = rows[200].split(",")
+    cells[column] = "1e308"
+    rows[200] = ",".join(cells)
+    paths["absurd"] = folder / "absurd.csv"
+    paths["absurd"].write_text("\n".join([header, *rows]) + "\n")
+    return paths
+
+
+# ------------------------------------------------------------------ item 2: absurd values, no tracebacks
+def test_one_absurd_effort_does_not_crash_the_report(recordings: dict[str, Path], tmp_path: Path) -> None:
+    """The plots leave out what they cannot draw (it was an OverflowError in matplotlib's ticks); the
+    readers may also skip or refuse the sample (item 1): then one ERROR line."""
+    out = tmp_path / "diagnosis"
+    result = run("diagnose", "--train", recordings["train"], "--test", recordings["absurd"], "--arm", "right", "--jobs", "1", "--out", out, tmp=tmp_path / "tmp")
+    assert "Traceback" not in result.stderr, result.stderr
+    if result.returncode == 0:
+        assert {"report.html", "residual_over_time.png", "before_after.png", "regimes.png"} <= set(listing(out))
+    else:
+        assert the_error(result) and not out.exists()
+    assert listing(tmp_path / "tmp") == []
+
+
+@pytest.mark.parametrize("address", ["garbage", "", "http://127.0.0.1:8786", "tcp://127.0.0.1:99999", "tcp://127.0.0.1"])
+def test_a_scheduler_that_is_not_an_address_is_refused(recordings: dict[str, Path], tmp_path: Path, address: str) -> None:
+    out = tmp_path / "diagnosis"
+    line = the_error(run("diagnose", "--train", recordings["train"], "--out", out, "--scheduler", address, tmp=tmp_path / "tmp"))
+    assert line == f"ERROR: --scheduler {address!r}: expected 'local' or tcp://HOST:PORT (e.g. tcp://10.0.0.5:8786)"
+    assert listing(tmp_path) == ["tmp"]
+
+
+@pytest.mark.parametrize(
+    "option, value, limit",
+    [("--duration", "1e12", f"at most {MAX_DURATION_S:g} s"), ("--rate-hz", "1e9", f"at most at {MAX_RATE_HZ:g} Hz"), ("--duration", "3600", "at most 1000000")],
+)
+def test_a_simulation_beyond_its_bounds_is_refused_naming_the_limit(tmp_path: Path, option: str, value: str, limit: str) -> None:
+    extra = ["--rate-hz", "1000"] if value == "3600" else []  # 3.6 million samples
+    line = the_error(run("simulate", option, value, *extra, "--out", tmp_path / "sim.mcap", tmp=tmp_path / "tmp", timeout_s=60))
+    assert limit in line and (option in line or "--rate-hz" in line)
+    assert listing(tmp_path) == ["tmp"]
+
+
+# ------------------------------------------------------------------ item 3: a service that is not dask
+@pytest.fixture
+def not_dask() -> Iterator[dict[str, int]]:
+    """Ports on 127.0.0.1: ``silent`` accepts connections and says nothing, ``talks`` answers as an
+    HTTP server does, ``closed`` has nothing listening. Stopped at the end."""
+    servers, stop = [], threading.Event()
+    for reply in (b"", b"HTTP/1.0 400 Bad Request\r\nContent-Length: 9\r\n\r\nnot dask\n" * 4):
+        server = socket.create_server(("127.0.0.1", 0))
+        server.settimeout(0.1)
+        servers.append((server, reply))
+    held: list[socket.socket] = []
+
+    def serve() -> None:
+        while not stop.is_set():
+            for server, reply in servers:
+                try:
+                    conn, _ = server.accept()
+                except TimeoutError:
+                    continue
+                held.append(conn)
+                if reply:
+                    conn.sendall(reply)
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    closed = socket.create_server(("127.0.0.1", 0))
+    ports = {"silent": servers[0][0].getsockname()[1], "talks": servers[1][0].getsockname()[1], "closed": closed.getsockname()[1]}
+    closed.close()
+    try:
+        yield ports
+    finally:
+        stop.set()
+        thread.join(timeout=5)
+        for s in [*held, *(server for server, _ in servers)]:
+            s.close()
+
+
+@pytest.mark.parametrize("service", ["silent", "talks", "closed"])
+def test_a_scheduler_that_is_not_dask_is_refused_within_the_connect_timeout(
+    recordings: dict[str, Path], tmp_path: Path, not_dask: dict[str, int], service: str
+) -> None:
+    """It hung for ever (silent), or failed in numpy (talks: its bytes read as a message length), or
+    after 10 s (closed)."""
+    address = f"tcp://127.0.0.1:{not_dask[service]}"
+    start = time.monotonic()
+    result = run("diagnose", "--train", recordings["train"], "--out", tmp_path / "diagnosis", "--scheduler", address, tmp=tmp_path / "tmp", timeout_s=START_S + 60)
+    elapsed_s = time.monotonic() - start
+    line = the_error(result)
+    assert line.startswith(f"ERROR: cannot reach a dask scheduler at {address} within {CONNECT_TIMEOUT_S:g} s") or line.startswith(
+        f"ERROR: {address} does not answer as a dask scheduler does"
+    ), line
+    assert elapsed_s < START_S + CONNECT_TIMEOUT_S + 5
+    assert listing(tmp_path) == ["tmp"]
