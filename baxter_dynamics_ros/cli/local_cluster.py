@@ -35,15 +35,17 @@ class _Worker(Worker):
 
 def local_cluster(jobs: int, scratch: str) -> SpecCluster:
     """A started cluster of ``jobs`` single-threaded worker processes on 127.0.0.1, their scratch in
-    the folder ``scratch``; close it (a context manager) to stop them."""
+    the folder ``scratch``; close it (a context manager) to stop them. The workers log nothing (a
+    task's error comes back to the client, which raises it: their "Compute Failed" with its traceback
+    would only repeat it), the scheduler its errors."""
     common = {"host": "127.0.0.1", "protocol": "tcp://", "dashboard": False, "dashboard_address": None}
     worker = {
         "cls": Nanny,
-        "options": {**common, "nthreads": 1, "local_directory": scratch, "worker_class": _Worker, "silence_logs": logging.WARN},
+        "options": {**common, "nthreads": 1, "local_directory": scratch, "worker_class": _Worker, "silence_logs": logging.CRITICAL},
     }
     return SpecCluster(
         scheduler={"cls": _Scheduler, "options": {**common, "port": 0}},
         workers={k: worker for k in range(jobs)},
         worker=worker,
-        silence_logs=logging.WARN,
+        silence_logs=logging.ERROR,
     )

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import ctypes
+import logging
 import os
 import re
 import tempfile
@@ -166,7 +167,12 @@ def _dask_client(address: str, jobs: int, scratch: str | None) -> Iterator[Any]:
                 client = stack.enter_context(Client(address, timeout=CONNECT_TIMEOUT_S))
         except (OSError, TimeoutError) as err:
             raise WorkerError(f"cannot reach a dask scheduler at {address} within {CONNECT_TIMEOUT_S:g} s: {err}") from err
-        yield client
+        try:
+            yield client
+        except KeyboardInterrupt:  # also SIGTERM: the cluster is stopped as the stack unwinds, and what
+            for name in ("asyncio", "distributed", "tornado"):  # dask's tasks say as they are cut short is no news
+                logging.getLogger(name).setLevel(logging.CRITICAL)
+            raise
 
 
 def _probe(address: str) -> None:
@@ -204,5 +210,8 @@ def _dask_map(client, function: Callable[[Any], Any], items: Sequence[Any]) -> l
         return client.gather(futures)
     except KilledWorker as err:
         raise WorkerError(f"a dask worker died while working on a file ({err})") from err
-    finally:
+    except KeyboardInterrupt:  # also SIGTERM: the workers are stopped with the cluster, not task by task
+        raise
+    except BaseException:
         client.cancel(futures)
+        raise

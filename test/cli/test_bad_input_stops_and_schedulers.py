@@ -151,3 +151,140 @@ def test_a_scheduler_that_is_not_dask_is_refused_within_the_connect_timeout(
     ), line
     assert elapsed_s < START_S + CONNECT_TIMEOUT_S + 5
     assert listing(tmp_path) == ["tmp"]
+
+
+# ------------------------------------------------------------------ items 5 and 8: SIGTERM, --scheduler local
+def _tree(root: psutil.Process) -> list[psutil.Process]:
+    """root and its descendants (none if it has ended)."""
+    try:
+        return [root, *root.children(recursive=True)]
+    except psutil.NoSuchProcess:
+        return []
+
+
+def _listening(processes: list[psutil.Process]) -> set[tuple[str, int]]:
+    """The (address, port) pairs the processes listen on (TCP)."""
+    found = set()
+    for process in processes:
+        try:
+            found |= {(c.laddr.ip, c.laddr.port) for c in process.net_connections("tcp") if c.status == psutil.CONN_LISTEN}
+        except psutil.Error:  # ended meanwhile
+            pass
+    return found
+
+
+class Watched:
+    """A run of the command watched until it ends: its exit code and stderr, every process of its
+    tree seen and every TCP port they listened on."""
+
+    def __init__(self, args: list[str | Path], tmp: Path, stop_when=None, signal_group: bool = False) -> None:
+        """stop_when(tmp): when true, SIGTERM is sent to the command (to its process group with
+        signal_group, as ``timeout`` does); the test fails if the command ended before."""
+        child = subprocess.Popen(
+            [str(COMMAND), *map(str, args)], cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+            env=environment(tmp), start_new_session=True,
+        )  # fmt: skip
+        root = psutil.Process(child.pid)
+        self.seen: dict[int, psutil.Process] = {}
+        self.listened: set[tuple[str, int]] = set()
+        self.signalled = False
+        deadline = time.monotonic() + START_S + 120
+        try:
+            while child.poll() is None and time.monotonic() < deadline:
+                tree = _tree(root)
+                self.seen.update((p.pid, p) for p in tree[1:])
+                self.listened |= _listening(tree)
+                if stop_when is not None and not self.signalled and stop_when(tmp):
+                    self.seen.update((p.pid, p) for p in _tree(root)[1:])
+                    os.killpg(child.pid, signal.SIGTERM) if signal_group else child.send_signal(signal.SIGTERM)
+                    self.signalled = True
+                time.sleep(0.1)
+            _, self.stderr = child.communicate(timeout=60)
+        finally:
+            if child.poll() is None:
+                os.killpg(child.pid, signal.SIGKILL)
+                child.wait()
+        self.returncode = child.returncode
+        assert stop_when is None or self.signalled, f"the command ended (exit {self.returncode}) before it was signalled:\n{self.stderr}"
+        _, alive = psutil.wait_procs(list(self.seen.values()), timeout=15)
+        self.left_running = [p for p in alive if _still_running(p)]
+        for p in self.left_running:  # stopped by the test that started them, then reported
+            p.kill()
+
+
+def _still_running(process: psutil.Process) -> bool:
+    try:
+        return process.status() != psutil.STATUS_ZOMBIE
+    except psutil.NoSuchProcess:
+        return False
+
+
+def _decoding_started(tmp: Path) -> bool:
+    """diagnose keeps each file's decoded arrays in its scratch folder: the run is under way."""
+    return any(tmp.rglob("*.npz"))
+
+
+def _writing_started(folder: Path):
+    def started(tmp: Path) -> bool:  # process stages its outputs in .NAME.*.partial beside --out
+        return any(p.is_file() for staging in folder.glob(".*.partial") for p in staging.rglob("*"))
+
+    return started
+
+
+def _assert_terminated_cleanly(run: Watched, tmp: Path, folder: Path, inputs: set[str]) -> None:
+    shown = f"exit {run.returncode}\nstderr:\n{run.stderr}"
+    assert run.returncode == 128 + signal.SIGTERM, shown
+    assert "Traceback" not in run.stderr, shown
+    assert [line for line in run.stderr.splitlines() if line.startswith("ERROR:")] == ["ERROR: terminated (SIGTERM)"], shown
+    assert run.stderr.rstrip("\n").splitlines()[-1] == "ERROR: terminated (SIGTERM)", shown
+    assert set(listing(folder)) == inputs  # no .NAME.XXXX.partial, no output
+    assert listing(tmp) == []  # no scratch folder, no dask-scratch-space
+    assert not run.left_running, [p.info if hasattr(p, "info") else p for p in run.left_running]
+
+
+@pytest.mark.parametrize(
+    "jobs, how",
+    [("1", "process"), ("2", "process"), ("2", "group"), ("2", "local")],
+)
+def test_sigterm_during_diagnose_leaves_nothing_behind(recordings: dict[str, Path], tmp_path: Path, jobs: str, how: str) -> None:
+    """It left the staging and scratch folders and, with --jobs 2, its workers running for minutes."""
+    work = tmp_path / "work"
+    work.mkdir()
+    scheduler = ["--scheduler", "local"] if how == "local" else []
+    args = ["diagnose", "--train", recordings["train"], "--test", recordings["test"], "--arm", "right", "--out", work / "diagnosis", "--jobs", jobs, *scheduler]
+    run = Watched(args, tmp_path / "tmp", stop_when=_decoding_started, signal_group=how == "group")
+    _assert_terminated_cleanly(run, tmp_path / "tmp", work, set())
+
+
+@pytest.mark.parametrize("jobs, how", [("1", "process"), ("2", "process"), ("2", "group")])
+def test_sigterm_during_process_leaves_nothing_behind(recordings: dict[str, Path], tmp_path: Path, jobs: str, how: str) -> None:
+    work = tmp_path / "work"
+    (work / "in").mkdir(parents=True)
+    for k in range(8):
+        (work / "in" / f"r{k}.csv").write_bytes(recordings["train"].read_bytes())
+    inputs = set(listing(work))
+    args = ["process", work / "in", "--arm", "right", "--out", work / "out", "--format", "csv", "--jobs", jobs]
+    run = Watched(args, tmp_path / "tmp", stop_when=_writing_started(work), signal_group=how == "group")
+    _assert_terminated_cleanly(run, tmp_path / "tmp", work, inputs)
+
+
+@pytest.mark.parametrize("outcome", ["success", "failure"])
+def test_a_local_cluster_serves_no_http_and_leaves_no_scratch(recordings: dict[str, Path], tmp_path: Path, outcome: str) -> None:
+    """It served dask's pages on 127.0.0.1:8787 (and each worker's on a random port) and left
+    dask-scratch-space/ in TMPDIR. Now: the scheduler's port and, per worker, its nanny's and its own,
+    all on 127.0.0.1; nothing left in TMPDIR; no process left."""
+    test = recordings["test" if outcome == "success" else "short"]
+    out = tmp_path / "diagnosis"
+    args = ["diagnose", "--train", recordings["train"], "--test", test, "--arm", "right", "--out", out, "--jobs", "1", "--scheduler", "local"]
+    run = Watched(args, tmp_path / "tmp")
+    if outcome == "success":
+        assert run.returncode == 0 and "Traceback" not in run.stderr, run.stderr
+        assert (out / "report.html").exists()
+    else:
+        assert the_error(subprocess.CompletedProcess(args, run.returncode, "", run.stderr)).startswith(f"ERROR: {test}")
+        assert not out.exists()
+    assert run.listened, "no cluster seen"
+    assert {ip for ip, _ in run.listened} == {"127.0.0.1"} and 8787 not in {port for _, port in run.listened}, run.listened
+    assert len(run.listened) <= 1 + 2 * 1, run.listened  # scheduler; the worker's nanny and itself: no HTTP server
+    assert listing(tmp_path / "tmp") == []
+    assert not run.left_running
