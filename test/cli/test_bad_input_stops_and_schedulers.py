@@ -10,6 +10,7 @@ from ``conftest.py``.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import socket
@@ -199,17 +200,18 @@ class Watched:
                     os.killpg(child.pid, signal.SIGTERM) if signal_group else child.send_signal(signal.SIGTERM)
                     self.signalled = True
                 time.sleep(0.1)
-            _, self.stderr = child.communicate(timeout=60)
-        finally:
-            if child.poll() is None:
+            _, self.stderr = child.communicate(timeout=60)  # also waits for workers holding its stderr
+            self.returncode = child.returncode
+            _, alive = psutil.wait_procs(list(self.seen.values()), timeout=15)
+            self.left_running = [p for p in alive if _still_running(p)]
+        finally:  # whatever is left of the run is stopped by the test that started it (then reported)
+            for p in self.seen.values():
+                with contextlib.suppress(psutil.Error):
+                    p.kill()
+            with contextlib.suppress(ProcessLookupError):
                 os.killpg(child.pid, signal.SIGKILL)
-                child.wait()
-        self.returncode = child.returncode
+            child.wait()
         assert stop_when is None or self.signalled, f"the command ended (exit {self.returncode}) before it was signalled:\n{self.stderr}"
-        _, alive = psutil.wait_procs(list(self.seen.values()), timeout=15)
-        self.left_running = [p for p in alive if _still_running(p)]
-        for p in self.left_running:  # stopped by the test that started them, then reported
-            p.kill()
 
 
 def _still_running(process: psutil.Process) -> bool:
@@ -239,7 +241,7 @@ def _assert_terminated_cleanly(run: Watched, tmp: Path, folder: Path, inputs: se
     assert run.stderr.rstrip("\n").splitlines()[-1] == "ERROR: terminated (SIGTERM)", shown
     assert set(listing(folder)) == inputs  # no .NAME.XXXX.partial, no output
     assert listing(tmp) == []  # no scratch folder, no dask-scratch-space
-    assert not run.left_running, [p.info if hasattr(p, "info") else p for p in run.left_running]
+    assert not run.left_running, run.left_running
 
 
 @pytest.mark.parametrize(
