@@ -290,3 +290,21 @@ def test_a_local_cluster_serves_no_http_and_leaves_no_scratch(recordings: dict[s
     assert len(run.listened) <= 1 + 2 * 1, run.listened  # scheduler; the worker's nanny and itself: no HTTP server
     assert listing(tmp_path / "tmp") == []
     assert not run.left_running
+
+
+@pytest.mark.parametrize("delay_s", [0.3, 1.0, 2.5])
+def test_sigterm_at_any_time_is_one_line_and_exit_143(recordings: dict[str, Path], tmp_path: Path, delay_s: float) -> None:
+    """Before the command runs (imports, parsing) the process ends at once; while it runs it unwinds."""
+    out = tmp_path / "work" / "a" / "o.csv"
+    child = subprocess.Popen(
+        [str(COMMAND), "process", str(recordings["test"]), "--arm", "right", "--out", str(out)], cwd=REPO,
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=environment(tmp_path / "tmp"),
+    )  # fmt: skip
+    time.sleep(delay_s)
+    child.send_signal(signal.SIGTERM)
+    _, stderr = child.communicate(timeout=120)
+    if child.returncode == 0:  # finished before the signal: nothing to check but a clean run
+        return
+    assert "Traceback" not in stderr, stderr
+    assert child.returncode == 143 and stderr.strip().splitlines()[-1] == "ERROR: terminated (SIGTERM)", stderr
+    assert not (tmp_path / "work").exists() and listing(tmp_path / "tmp") == []
