@@ -64,6 +64,10 @@ if __name__ == "__mp_main__" or "--multiprocessing-fork" in getattr(sys, "orig_a
 else:
     for _signum in _ENDINGS:
         signal.signal(_signum, _on_signal)
+    # multiprocessing's resource tracker (a process of its own, started with this interpreter's -W
+    # options) removes the semaphores of worker pools that an exit on a signal left, and would say so
+    # on stderr after the one ERROR line
+    sys.warnoptions.append("ignore::UserWarning:multiprocessing.resource_tracker")
 
 from ..errors import BaxterDynamicsError
 

@@ -179,7 +179,7 @@ class Watched:
     tree seen and every TCP port they listened on."""
 
     def __init__(self, args: list[str | Path], tmp: Path, stop_when=None, signal_group: bool = False) -> None:
-        """stop_when(tmp): when true, SIGTERM is sent to the command (to its process group with
+        """stop_when(tmp, processes of the run): when true, SIGTERM is sent to the command (to its process group with
         signal_group, as ``timeout`` does); the test fails if the command ended before."""
         child = subprocess.Popen(
             [str(COMMAND), *map(str, args)], cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
@@ -195,7 +195,7 @@ class Watched:
                 tree = _tree(root)
                 self.seen.update((p.pid, p) for p in tree[1:])
                 self.listened |= _listening(tree)
-                if stop_when is not None and not self.signalled and stop_when(tmp):
+                if stop_when is not None and not self.signalled and stop_when(tmp, tree):
                     self.seen.update((p.pid, p) for p in _tree(root)[1:])
                     os.killpg(child.pid, signal.SIGTERM) if signal_group else child.send_signal(signal.SIGTERM)
                     self.signalled = True
@@ -221,13 +221,20 @@ def _still_running(process: psutil.Process) -> bool:
         return False
 
 
-def _decoding_started(tmp: Path) -> bool:
+def _decoding_started(tmp: Path, tree: list[psutil.Process]) -> bool:
     """diagnose keeps each file's decoded arrays in its scratch folder: the run is under way."""
     return any(tmp.rglob("*.npz"))
 
 
+def _workers_starting(tmp: Path, tree: list[psutil.Process]) -> bool:
+    """A worker process has been spawned (a --scheduler local cluster is starting)."""
+    with contextlib.suppress(psutil.Error):
+        return any("spawn_main" in " ".join(p.cmdline()) for p in tree)
+    return False
+
+
 def _writing_started(folder: Path):
-    def started(tmp: Path) -> bool:  # process stages its outputs in .NAME.*.partial beside --out
+    def started(tmp: Path, tree: list[psutil.Process]) -> bool:  # process stages its outputs in .NAME.*.partial beside --out
         return any(p.is_file() for staging in folder.glob(".*.partial") for p in staging.rglob("*"))
 
     return started
@@ -246,15 +253,18 @@ def _assert_terminated_cleanly(run: Watched, tmp: Path, folder: Path, inputs: se
 
 @pytest.mark.parametrize(
     "jobs, how",
-    [("1", "process"), ("2", "process"), ("2", "group"), ("2", "local")],
+    [("1", "process"), ("2", "process"), ("2", "group"), ("2", "local"), ("2", "local-start")],
 )
 def test_sigterm_during_diagnose_leaves_nothing_behind(recordings: dict[str, Path], tmp_path: Path, jobs: str, how: str) -> None:
-    """It left the staging and scratch folders and, with --jobs 2, its workers running for minutes."""
+    """It left the staging and scratch folders and, with --jobs 2, its workers running for minutes.
+    Signalled while the files are read, to the command or to its process group (as ``timeout``
+    does), or while a --scheduler local cluster starts."""
     work = tmp_path / "work"
     work.mkdir()
-    scheduler = ["--scheduler", "local"] if how == "local" else []
+    scheduler = ["--scheduler", "local"] if how.startswith("local") else []
     args = ["diagnose", "--train", recordings["train"], "--test", recordings["test"], "--arm", "right", "--out", work / "diagnosis", "--jobs", jobs, *scheduler]
-    run = Watched(args, tmp_path / "tmp", stop_when=_decoding_started, signal_group=how == "group")
+    stop_when = _workers_starting if how == "local-start" else _decoding_started
+    run = Watched(args, tmp_path / "tmp", stop_when=stop_when, signal_group=how == "group")
     _assert_terminated_cleanly(run, tmp_path / "tmp", work, set())
 
 
