@@ -10,9 +10,9 @@ the cores; more threads only contend) and hand their freed heap back after each 
 On an interrupt (Ctrl-C, SIGTERM) the worker processes are terminated, not waited for.
 ``--scheduler`` takes ``local`` or ``tcp://HOST:PORT``; a scheduler that does not answer as dask
 does within :data:`CONNECT_TIMEOUT_S` is an error. ``local`` starts a one-machine dask cluster on
-127.0.0.1 without any HTTP server (:mod:`.local_cluster`), its workers' scratch in a temporary
-folder of its own, its workers on one thread each too, and closes it at the end, also on error and
-interrupt. A worker's
+127.0.0.1 without any HTTP server (:mod:`.local_cluster`), its workers' scratch inside the run's
+scratch folder (or a temporary folder of its own), its workers on one thread each too, and closes it
+at the end, also on error and interrupt. A worker's
 error (a corrupt file) comes back as the error it raised; a worker that dies, or a scheduler that
 cannot be reached, is a :class:`~baxter_dynamics_ros.errors.WorkerError`. No worker imports rclpy.
 """
@@ -84,7 +84,7 @@ def add_worker_arguments(parser: argparse.ArgumentParser, cluster: bool = True) 
         "--scheduler", metavar="ADDRESS",
         help="run the per-file work on a dask.distributed cluster at ADDRESS (tcp://HOST:PORT, e.g. tcp://host:8786; the files must be "
         f"at the same paths on its workers: a shared filesystem; it must answer within {CONNECT_TIMEOUT_S:g} s), or 'local' for a "
-        "cluster of --jobs worker processes on this machine (127.0.0.1, no dashboard)",
+        "cluster of --jobs worker processes on this machine (127.0.0.1, no dashboard nor other HTTP server)",
     )  # fmt: skip
 
 
@@ -206,12 +206,14 @@ def _dask_map(client, function: Callable[[Any], Any], items: Sequence[Any]) -> l
     from distributed.scheduler import KilledWorker
 
     futures = client.map(function, items, pure=False)
+    interrupted = False
     try:
         return client.gather(futures)
     except KilledWorker as err:
         raise WorkerError(f"a dask worker died while working on a file ({err})") from err
     except KeyboardInterrupt:  # also SIGTERM: the workers are stopped with the cluster, not task by task
+        interrupted = True
         raise
-    except BaseException:
-        client.cancel(futures)
-        raise
+    finally:
+        if not interrupted:
+            client.cancel(futures)

@@ -234,7 +234,7 @@ def _workers_starting(tmp: Path, tree: list[psutil.Process]) -> bool:
 
 
 def _writing_started(folder: Path):
-    def started(tmp: Path, tree: list[psutil.Process]) -> bool:  # process stages its outputs in .NAME.*.partial beside --out
+    def started(tmp: Path, tree: list[psutil.Process]) -> bool:  # outputs are staged in .NAME.*.partial beside --out
         return any(p.is_file() for staging in folder.glob(".*.partial") for p in staging.rglob("*"))
 
     return started
@@ -253,17 +253,17 @@ def _assert_terminated_cleanly(run: Watched, tmp: Path, folder: Path, inputs: se
 
 @pytest.mark.parametrize(
     "jobs, how",
-    [("1", "process"), ("2", "process"), ("2", "group"), ("2", "local"), ("2", "local-start")],
+    [("1", "process"), ("1", "writing"), ("2", "process"), ("2", "group"), ("2", "local"), ("2", "local-start")],
 )
 def test_sigterm_during_diagnose_leaves_nothing_behind(recordings: dict[str, Path], tmp_path: Path, jobs: str, how: str) -> None:
     """It left the staging and scratch folders and, with --jobs 2, its workers running for minutes.
     Signalled while the files are read, to the command or to its process group (as ``timeout``
-    does), or while a --scheduler local cluster starts."""
+    does), while a --scheduler local cluster starts, or while the outputs are written (staged)."""
     work = tmp_path / "work"
     work.mkdir()
     scheduler = ["--scheduler", "local"] if how.startswith("local") else []
     args = ["diagnose", "--train", recordings["train"], "--test", recordings["test"], "--arm", "right", "--out", work / "diagnosis", "--jobs", jobs, *scheduler]
-    stop_when = _workers_starting if how == "local-start" else _decoding_started
+    stop_when = {"local-start": _workers_starting, "writing": _writing_started(work)}.get(how, _decoding_started)
     run = Watched(args, tmp_path / "tmp", stop_when=stop_when, signal_group=how == "group")
     _assert_terminated_cleanly(run, tmp_path / "tmp", work, set())
 
