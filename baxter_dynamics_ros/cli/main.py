@@ -23,6 +23,7 @@ import importlib
 import os
 import signal
 import sys
+import threading
 from collections.abc import Sequence
 from types import FrameType
 
@@ -58,6 +59,12 @@ def _on_signal(signum: int, frame: FrameType | None) -> None:
     raise Terminated if signum == signal.SIGTERM else KeyboardInterrupt
 
 
+def _thread_failed(args: threading.ExceptHookArgs) -> None:
+    """A thread's uncaught exception: shown as Python does, unless the command was stopped by a signal."""
+    if _received is None:
+        threading.__excepthook__(args)
+
+
 if __name__ == "__mp_main__" or "--multiprocessing-fork" in getattr(sys, "orig_argv", ()):
     # a worker process started by spawn (multiprocessing, dask's nanny): this process stops it
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -68,6 +75,9 @@ else:
     # options) removes the semaphores of worker pools that an exit on a signal left, and would say so
     # on stderr after the one ERROR line
     sys.warnoptions.append("ignore::UserWarning:multiprocessing.resource_tracker")
+    # and a library thread that fails as the command unwinds after a signal (concurrent.futures' pool
+    # manager setting an exception on a future cancelled meanwhile, Python 3.11) prints no traceback
+    threading.excepthook = _thread_failed
 
 from ..errors import BaxterDynamicsError
 

@@ -109,8 +109,7 @@ def file_mapper(jobs: int | None, scheduler: str | None, scratch: str | None = N
         try:
             yield partial(_pool_map, executor)
         except KeyboardInterrupt:  # also SIGTERM (cli.main): stop the workers now, not after their file
-            for process in list((getattr(executor, "_processes", None) or {}).values()):  # public from Python 3.14 only
-                process.terminate()
+            _stop_worker_processes()
             raise
         finally:
             executor.shutdown(wait=True, cancel_futures=True)
@@ -144,35 +143,63 @@ def _trimmed(function: Callable[[Any], Any], item: Any) -> Any:
 @contextmanager
 def _dask_client(address: str, jobs: int, scratch: str | None) -> Iterator[Any]:
     try:
-        from dask.distributed import Client
+        import dask.distributed  # noqa: F401
     except ImportError as err:
         raise WorkerError(f"--scheduler needs dask.distributed ({err}); install the package's 'cluster' extra") from err
+    try:
+        with ExitStack() as stack:
+            try:
+                yield _started_client(stack, address, jobs, scratch)
+            except KeyboardInterrupt:  # also SIGTERM: the cluster is stopped as the stack unwinds, and what
+                for name in ("asyncio", "distributed", "tornado"):  # dask's tasks say as they are cut short is no news
+                    logging.getLogger(name).setLevel(logging.CRITICAL)
+                raise
+    except KeyboardInterrupt:  # a cluster interrupted while it started is not in the stack: its workers
+        _stop_worker_processes()  # would live on a moment and write into the scratch folder once removed
+        raise
+
+
+def _started_client(stack: ExitStack, address: str, jobs: int, scratch: str | None) -> Any:
+    """A dask client of the scheduler at address or of a new local cluster, entered into stack."""
     import dask
+    from dask.distributed import Client
 
-    with ExitStack() as stack:
-        settings = {"distributed.comm.timeouts.connect": f"{CONNECT_TIMEOUT_S}s"}
-        try:
-            if address == "local":
-                from .local_cluster import local_cluster
+    settings = {"distributed.comm.timeouts.connect": f"{CONNECT_TIMEOUT_S}s"}
+    try:
+        if address == "local":
+            from .local_cluster import local_cluster
 
-                where = scratch if scratch is not None else stack.enter_context(tempfile.TemporaryDirectory(prefix="baxter-dynamics-"))
-                scratch = tempfile.mkdtemp(prefix="dask-", dir=where)  # removed with where
-                stack.enter_context(dask.config.set({**settings, "temporary-directory": scratch}))
-                cluster = stack.enter_context(local_cluster(jobs, scratch))
-                client = stack.enter_context(Client(cluster))
-                client.run(one_thread)
-            else:
-                stack.enter_context(dask.config.set(settings))
-                _probe(address)
-                client = stack.enter_context(Client(address, timeout=CONNECT_TIMEOUT_S))
-        except (OSError, TimeoutError) as err:
-            raise WorkerError(f"cannot reach a dask scheduler at {address} within {CONNECT_TIMEOUT_S:g} s: {err}") from err
-        try:
-            yield client
-        except KeyboardInterrupt:  # also SIGTERM: the cluster is stopped as the stack unwinds, and what
-            for name in ("asyncio", "distributed", "tornado"):  # dask's tasks say as they are cut short is no news
-                logging.getLogger(name).setLevel(logging.CRITICAL)
-            raise
+            where = scratch if scratch is not None else stack.enter_context(tempfile.TemporaryDirectory(prefix="baxter-dynamics-"))
+            scratch = tempfile.mkdtemp(prefix="dask-", dir=where)  # removed with where
+            stack.enter_context(dask.config.set({**settings, "temporary-directory": scratch}))
+            cluster = stack.enter_context(local_cluster(jobs, scratch))
+            client = stack.enter_context(Client(cluster))
+            client.run(one_thread)
+        else:
+            stack.enter_context(dask.config.set(settings))
+            _probe(address)
+            client = stack.enter_context(Client(address, timeout=CONNECT_TIMEOUT_S))
+    except (OSError, TimeoutError) as err:
+        raise WorkerError(f"cannot reach a dask scheduler at {address} within {CONNECT_TIMEOUT_S:g} s: {err}") from err
+    return client
+
+
+def _stop_worker_processes(rounds: int = 3, wait_s: float = 5.0) -> None:
+    """Terminate this process' multiprocessing children (pool workers, dask's nanny-started workers)
+    and wait for them; again while new ones appear (a starting cluster may spawn one more)."""
+    import multiprocessing
+
+    for _ in range(rounds):
+        children = multiprocessing.active_children()
+        if not children:
+            return
+        for child in children:
+            child.terminate()
+        for child in children:
+            child.join(wait_s)
+            if child.is_alive():
+                child.kill()
+                child.join(wait_s)
 
 
 def _probe(address: str) -> None:
