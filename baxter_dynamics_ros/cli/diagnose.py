@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING
 from ..errors import DiagnosisError
 from .inputs import expand_inputs
 from .paths import check_paths
-from .workers import add_worker_arguments, file_mapper
+from .workers import add_worker_arguments, check_scheduler, file_mapper
 
 if TYPE_CHECKING:
     from ..diagnosis.procedure import DiagnosisResult
@@ -56,6 +56,8 @@ def run(args: argparse.Namespace) -> int:
     from ..core.output_files import check_outputs
     from ..diagnosis.report import OUTPUT_FILES, write_diagnosis
 
+    if args.scheduler is not None:
+        check_scheduler(args.scheduler)
     outputs = [args.out / name for name in OUTPUT_FILES]
     given = (("--train", expand_inputs(args.train)), ("--test", expand_inputs(args.test)))
     check_paths([p for _, paths in given for p in paths], outputs)
@@ -66,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
     with ExitStack() as stack:
         # Decoded once, loaded by the later passes; a remote cluster's workers cannot see this folder.
         scratch = None if args.scheduler not in (None, "local") else stack.enter_context(tempfile.TemporaryDirectory(prefix="baxter-dynamics-"))
-        mapper = stack.enter_context(file_mapper(args.jobs, args.scheduler))
+        mapper = stack.enter_context(file_mapper(args.jobs, args.scheduler, scratch))
         result = _diagnose(args, given, show, mapper, scratch)
     paths = write_diagnosis(result, args.out, replace=args.force)
     print(_summary(result))

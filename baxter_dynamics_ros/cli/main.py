@@ -5,11 +5,15 @@ its one-line help sits in :data:`COMMANDS`. Modules are imported only when their
 fast and ``process`` never imports rclpy. To add a command, add one entry to :data:`COMMANDS`.
 
 Errors of this package (:class:`~baxter_dynamics_ros.errors.BaxterDynamicsError`) are caught here,
-at the edge, and printed as one ``ERROR: ...`` line on stderr with exit status 1. Ctrl-C (SIGINT)
-at any time prints one ``ERROR: interrupted`` line and exits 130, without a traceback: before the
-command runs (parsing, imports) the process ends at once, nothing having been written; while it
-runs, KeyboardInterrupt unwinds it so that its staged outputs are removed, further Ctrl-C being
-ignored meanwhile.
+at the edge, and printed as one ``ERROR: ...`` line on stderr with exit status 1; any other
+exception (a bug) too, as ``ERROR: unexpected ...``, unless ``BAXTER_DYNAMICS_DEBUG=1`` asks for its
+traceback. Ctrl-C (SIGINT) at any time prints one ``ERROR: interrupted`` line and exits 130, and
+SIGTERM (what ``timeout``, systemd and CI send) one ``ERROR: terminated (SIGTERM)`` line and exits
+143, without a traceback: before the command runs (parsing, imports) the process ends at once,
+nothing having been written; while it runs, KeyboardInterrupt (:class:`Terminated` for SIGTERM)
+unwinds it so that its cleanups run (staged outputs and scratch folders removed, worker processes
+stopped), further signals being ignored meanwhile. Worker processes the command spawns leave
+SIGINT to this process (a Ctrl-C in a terminal reaches the whole process group) and die of SIGTERM.
 """
 
 from __future__ import annotations
@@ -19,29 +23,65 @@ import importlib
 import os
 import signal
 import sys
+import threading
 from collections.abc import Sequence
 from types import FrameType
 
-#: Whether a command is running (Ctrl-C unwinds it) rather than starting (Ctrl-C ends the process).
+#: Whether a command is running (a signal unwinds it) rather than starting (a signal ends the process).
 _running = False
-_INTERRUPTED = 130
+#: The signal that stopped the command (SIGINT or SIGTERM), None while none came.
+_received: int | None = None
+#: set to 1 to see the traceback of an unexpected error instead of its one ERROR line
+DEBUG_VARIABLE = "BAXTER_DYNAMICS_DEBUG"
+#: signal -> (the one line printed, the exit status)
+_ENDINGS = {signal.SIGINT: ("ERROR: interrupted", 130), signal.SIGTERM: ("ERROR: terminated (SIGTERM)", 128 + signal.SIGTERM)}
 
 
-def _on_interrupt(signum: int, frame: FrameType | None) -> None:
-    """SIGINT: one line and exit 130 before a command runs; KeyboardInterrupt, once, while it runs."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C does not interrupt the cleanup
+class Terminated(KeyboardInterrupt):
+    """SIGTERM received while a command runs: raised where it is, so that its cleanups run as on Ctrl-C."""
+
+
+def _ignored(signum: int, frame: FrameType | None) -> None:
+    """A signal after the first: the cleanup goes on."""
+
+
+def _on_signal(signum: int, frame: FrameType | None) -> None:
+    """SIGINT, SIGTERM: one line and exit 130, 143 before a command runs; KeyboardInterrupt
+    (:class:`Terminated`), once, while it runs."""
+    global _received
+    for later in _ENDINGS:  # a second signal does not interrupt the cleanup (not SIG_IGN: a process
+        signal.signal(later, _ignored)  # spawned meanwhile would inherit it, and SIGTERM could not stop it)
     if not _running:
-        os.write(2, b"ERROR: interrupted\n")
-        os._exit(_INTERRUPTED)
-    raise KeyboardInterrupt
+        line, status = _ENDINGS[signum]
+        os.write(2, line.encode() + b"\n")
+        os._exit(status)
+    _received = signum
+    raise Terminated if signum == signal.SIGTERM else KeyboardInterrupt
 
 
-if __name__ != "__mp_main__":  # not in a worker process started by spawn
-    signal.signal(signal.SIGINT, _on_interrupt)
+def _thread_failed(args: threading.ExceptHookArgs) -> None:
+    """A thread's uncaught exception: shown as Python does, unless the command was stopped by a signal."""
+    if _received is None:
+        threading.__excepthook__(args)
+
+
+if __name__ == "__mp_main__" or "--multiprocessing-fork" in getattr(sys, "orig_argv", ()):
+    # a worker process started by spawn (multiprocessing, dask's nanny): this process stops it
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+else:
+    for _signum in _ENDINGS:
+        signal.signal(_signum, _on_signal)
+    # multiprocessing's resource tracker (a process of its own, started with this interpreter's -W
+    # options) removes the semaphores of worker pools that an exit on a signal left, and would say so
+    # on stderr after the one ERROR line
+    sys.warnoptions.append("ignore::UserWarning:multiprocessing.resource_tracker")
+    # and a library thread that fails as the command unwinds after a signal (concurrent.futures' pool
+    # manager setting an exception on a future cancelled meanwhile, Python 3.11) prints no traceback
+    threading.excepthook = _thread_failed
 
 from ..errors import BaxterDynamicsError
 
-__all__ = ["COMMANDS", "main"]
+__all__ = ["COMMANDS", "DEBUG_VARIABLE", "Terminated", "main"]
 
 #: command name -> (module implementing it, one-line help). The module is imported lazily.
 COMMANDS: dict[str, tuple[str, str]] = {
@@ -97,13 +137,28 @@ def main(argv: Sequence[str] | None = None) -> int:
         _running = True
         return int(module.run(args))
     except BaxterDynamicsError as err:
+        if _received is not None:  # a worker stopped by the same signal (a process group's) failed first
+            _end(_received)
         print(f"ERROR: {err}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:  # the command has unwound (its staged outputs removed): end here, exit 130
-        print("ERROR: interrupted", file=sys.stderr)
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os._exit(_INTERRUPTED)  # not a return: a library that saw the interrupt could still turn the exit into -SIGINT
+    except KeyboardInterrupt:  # the command has unwound (its staged outputs removed): end here
+        _end(signal.SIGTERM if _received == signal.SIGTERM else signal.SIGINT)
+    except Exception as err:
+        if _received is not None:  # a worker stopped by the same signal (a process group's) failed first
+            _end(_received)
+        if os.environ.get(DEBUG_VARIABLE) == "1":
+            raise
+        print(f"ERROR: unexpected {type(err).__name__}: {err} (a bug; {DEBUG_VARIABLE}=1 shows where)", file=sys.stderr)
+        return 1
     finally:
         _running = False
+
+
+def _end(signum: int) -> None:
+    """Print the signal's one line and exit with its status."""
+    line, status = _ENDINGS[signum]
+    print(line, file=sys.stderr)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(status)  # not a return: a library that saw the interrupt could still turn the exit into -SIGINT
 

@@ -31,6 +31,18 @@ def _short(names: tuple[str, ...]) -> list[str]:
     return [n.split("_", 1)[-1] for n in names]
 
 
+#: Largest magnitude plotted, N·m; beyond it (an absurd sample, an overflow) a value is left out of
+#: the plot, where matplotlib's tick placement would overflow (issue 22 item 2).
+PLOT_LIMIT = 1e12
+
+
+def _plottable(values) -> np.ndarray:
+    """values as floats, with the non-finite ones and those beyond ±PLOT_LIMIT made NaN (not drawn)."""
+    a = np.asarray(values, dtype=float)
+    with np.errstate(invalid="ignore"):
+        return np.where(np.isfinite(a) & (np.abs(a) <= PLOT_LIMIT), a, np.nan)
+
+
 def _plot_residuals(result: DiagnosisResult, path: Path) -> None:
     import matplotlib
 
@@ -40,9 +52,9 @@ def _plot_residuals(result: DiagnosisResult, path: Path) -> None:
     s = result.test_series
     fig, axes = plt.subplots(N, 1, figsize=(11, 13), sharex=True)
     for j, ax in enumerate(axes):
-        ax.plot(s["t_s"], s["baseline"][:, j], lw=0.6, color="0.6", label="rigid model, raw q̈")
-        ax.plot(s["t_s"], s["filtered"][:, j], lw=0.8, color="tab:blue", label="rigid model, filtered q̈")
-        ax.plot(s["t_s"], s["final"][:, j], lw=0.8, color="tab:red", label="with the selected effects")
+        ax.plot(s["t_s"], _plottable(s["baseline"][:, j]), lw=0.6, color="0.6", label="rigid model, raw q̈")
+        ax.plot(s["t_s"], _plottable(s["filtered"][:, j]), lw=0.8, color="tab:blue", label="rigid model, filtered q̈")
+        ax.plot(s["t_s"], _plottable(s["final"][:, j]), lw=0.8, color="tab:red", label="with the selected effects")
         ax.set_ylabel(f"{_short(result.joint_names)[j]}\nN·m")
         ax.grid(alpha=0.3)
     axes[0].legend(loc="upper right", fontsize=8, ncol=3)
@@ -69,7 +81,8 @@ def _plot_regimes(result: DiagnosisResult, path: Path) -> None:
         members = [b for b in bands if b.regime == regime]
         width = 0.8 / len(members)
         for k, band in enumerate(members):
-            ax.bar(x + k * width - 0.4 + width / 2, np.nan_to_num(band.rms / summary.rms), width, label=band.label)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ax.bar(x + k * width - 0.4 + width / 2, np.nan_to_num(_plottable(band.rms / summary.rms)), width, label=band.label)
         ax.axhline(1.0, color="0.3", lw=0.8)
         ax.set_xticks(x, joints)
         ax.set_ylabel("RMS / joint's RMS")
@@ -94,7 +107,7 @@ def _plot_before_after(result: DiagnosisResult, path: Path) -> None:
     fig, ax = plt.subplots(figsize=(11, 4))
     width = 0.8 / len(steps)
     for k, (label, rms) in enumerate(steps):
-        ax.bar(x + k * width - 0.4 + width / 2, rms, width, label=label)
+        ax.bar(x + k * width - 0.4 + width / 2, _plottable(rms), width, label=label)
     ax.set_yscale("log")
     ax.set_xticks(x, joints)
     ax.set_ylabel("held-out RMS [N·m]")

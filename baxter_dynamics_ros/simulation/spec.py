@@ -27,6 +27,9 @@ from .trajectories import TRAJECTORIES
 __all__ = [
     "COLLISION_LINKS",
     "COLLISION_PROFILES",
+    "MAX_DURATION_S",
+    "MAX_RATE_HZ",
+    "MAX_SAMPLES",
     "MIN_PHYSICS_RATE_HZ",
     "Collision",
     "ControllerGains",
@@ -36,6 +39,12 @@ __all__ = [
 ]
 
 MIN_PHYSICS_RATE_HZ = 1000.0
+#: Bounds of a simulated recording (issue 22 item 2: 1e12 s or 1e9 Hz ran out of memory in numpy):
+#: at most an hour (3.6 million RK4 steps at 1 kHz, a few minutes), sampled at most at 10 kHz, and at
+#: most a million samples (about 2 GB of memory while simulating, measured: 1.9 kB per sample).
+MAX_DURATION_S = 3600.0
+MAX_RATE_HZ = 10_000.0
+MAX_SAMPLES = 1_000_000
 COLLISION_PROFILES = ("impact", "push")
 COLLISION_LINKS = ("flange", "joints")
 
@@ -190,6 +199,17 @@ class SimulationSpec:
             raise SimulationError(f"arm must be 'right' or 'left', got {self.side!r}")
         for name in ("duration_s", "rate_hz", "settle_s"):
             object.__setattr__(self, name, _positive(getattr(self, name), name))
+        if self.duration_s > MAX_DURATION_S:
+            raise SimulationError(f"duration_s (--duration) {self.duration_s:g} s: a simulated recording lasts at most {MAX_DURATION_S:g} s")
+        if self.rate_hz > MAX_RATE_HZ:
+            raise SimulationError(f"rate_hz (--rate-hz) {self.rate_hz:g} Hz: a simulated recording is sampled at most at {MAX_RATE_HZ:g} Hz")
+        if self.duration_s * self.rate_hz > MAX_SAMPLES:
+            raise SimulationError(
+                f"{self.duration_s:g} s at {self.rate_hz:g} Hz is {self.duration_s * self.rate_hz:.0f} samples: a simulated recording "
+                f"has at most {MAX_SAMPLES} (about 2 GB of memory); shorten --duration or lower --rate-hz"
+            )
+        if self.settle_s > MAX_DURATION_S:
+            raise SimulationError(f"settle_s {self.settle_s:g} s: at most {MAX_DURATION_S:g} s")
         if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
             raise SimulationError(f"seed must be a non-negative integer, got {self.seed!r}")
         object.__setattr__(self, "seed", int(self.seed))
