@@ -131,9 +131,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run ``baxter-dynamics`` with argv (default: sys.argv[1:]); returns the exit status."""
     global _running
     argv = list(sys.argv[1:] if argv is None else argv)
-    args = _parser(argv).parse_args(argv)
-    module = importlib.import_module(COMMANDS[args.command][0])
     try:
+        args = _parser(argv).parse_args(argv)
+        module = importlib.import_module(COMMANDS[args.command][0])
+        for signum in _ENDINGS:  # a library imported meanwhile may have put its own handler in place
+            signal.signal(signum, _on_signal)
         _running = True
         return int(module.run(args))
     except BaxterDynamicsError as err:

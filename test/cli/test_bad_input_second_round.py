@@ -115,6 +115,11 @@ def test_ctrl_c_at_any_time_is_one_line_and_exit_130(table: Path, tmp_path: Path
     _, stderr = child.communicate(timeout=120)
     if child.returncode == 0:  # finished before the signal: nothing to check but a clean run
         return
+    if child.returncode == -signal.SIGINT and not stderr:
+        # the command had finished and the interpreter was exiting, its handlers already reset by
+        # Python's finalisation (a shell reports this as 130 too): the result is whole, nothing staged
+        assert listing(tmp_path) == ["a", "a/o.mcap"], listing(tmp_path)
+        return
     assert "Traceback" not in stderr, stderr
     assert child.returncode == 130 and stderr.strip().splitlines()[-1] == "ERROR: interrupted", stderr
     assert listing(tmp_path) == []
