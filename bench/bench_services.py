@@ -21,20 +21,17 @@ from __future__ import annotations
 
 import argparse
 import os
-import signal
-import subprocess
 import sys
 import tempfile
 import threading
 import time
 from collections.abc import Sequence
-from pathlib import Path
 
 import numpy as np
 
 from baxter_dynamics_ros.ros.ros_env import isolated_ros_env
+from bench.bench_node import start_peer, stop_peer
 
-REPO = Path(__file__).resolve().parents[1]
 JOINTS = ["right_s0", "right_s1", "right_e0", "right_e1", "right_w0", "right_w1", "right_w2"]
 GOAL_RATIO = 1.5
 ECHO, GRAVITY = "/bench_echo/echo", "/baxter_dynamics/compute_gravity"
@@ -114,19 +111,6 @@ class Caller:
         self.thread.join()
         self.node.destroy_node()
         rclpy.try_shutdown()
-
-
-def start_peer(args: Sequence[str]) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, *args], cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-
-
-def stop_peer(process: subprocess.Popen) -> None:
-    process.send_signal(signal.SIGINT)
-    try:
-        process.wait(timeout=15)
-    except subprocess.TimeoutExpired:
-        process.kill()
-        process.wait()
 
 
 def measure(calls: int, repeat: int) -> list[dict[str, np.ndarray | float]]:
