@@ -24,7 +24,7 @@ from ..errors import EffectSpecError
 from .arm_model import ArmModel
 from .effect_specs import effects_from_dict, read_spec_file
 from .effects import Effect, InertialChange
-from .plausibility import PLAUSIBLE_FACTOR
+from .plausibility import PLAUSIBLE_FACTOR, first_beyond_plausible_effort
 
 __all__ = ["NOT_COMPENSATED", "PLAUSIBILITY_STATES", "PLAUSIBLE_QDD_RAD_S2", "Compensation", "load_compensation", "require_plausible"]
 
@@ -91,12 +91,11 @@ def require_plausible(compensation: Compensation, where: str) -> None:
     qdd = PLAUSIBLE_QDD_RAD_S2 * (2.0 * rng.random(shape) - 1.0)
     with np.errstate(over="ignore", invalid="ignore"):
         tau = np.abs(arm.inverse_dynamics(q, qd, qdd) + compensation.torque(q, qd, qdd)).max(axis=0)
-    bound = PLAUSIBLE_FACTOR * arm.effort_limit_nm
-    over = np.flatnonzero(~(tau <= bound))
-    if over.size:
-        j = int(over[0])
+    beyond = first_beyond_plausible_effort(arm, tau)
+    if beyond is not None:
+        j, bound = beyond
         raise EffectSpecError(
             f"{where}: with these effects the model's torque at {arm.joint_names[j]} reaches {tau[j]:.3g} N·m within the "
-            f"joint and velocity limits, above {bound[j]:g} N·m ({PLAUSIBLE_FACTOR:g} × its effort limit, more than a real "
+            f"joint and velocity limits, above {bound:g} N·m ({PLAUSIBLE_FACTOR:g} × its effort limit, more than a real "
             "Baxter gives); check the effects' parameters and units (baxter-dynamics diagnose writes plausible ones)"
         )

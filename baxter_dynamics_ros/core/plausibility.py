@@ -38,6 +38,7 @@ __all__ = [
     "PLAUSIBLE_FACTOR",
     "POSITION_MARGIN_RAD",
     "Screening",
+    "first_beyond_plausible_effort",
     "package_bounds",
     "plausibility_bounds",
     "plausible_recording",
@@ -74,6 +75,14 @@ def plausibility_bounds(arm: ArmModel) -> np.ndarray:
     )
     bounds.flags.writeable = False
     return bounds
+
+
+def first_beyond_plausible_effort(arm: ArmModel, torque_nm: np.ndarray) -> tuple[int, float] | None:
+    """The first joint whose torque_nm (7,) N·m is not within :data:`PLAUSIBLE_FACTOR` × its effort
+    limit (NaN counts as beyond), with that bound in N·m; None when every joint's is."""
+    bound = PLAUSIBLE_FACTOR * arm.effort_limit_nm
+    over = np.flatnonzero(~(np.abs(torque_nm) <= bound))
+    return (int(over[0]), float(bound[over[0]])) if over.size else None
 
 
 @cache

@@ -20,7 +20,7 @@ import yaml
 from ..core.joints import JOINT_SUFFIXES
 from ..core.joints import JOINTS as N
 from ..core.output_files import staged_outputs
-from ..core.plausibility import PLAUSIBLE_FACTOR
+from ..core.plausibility import PLAUSIBLE_FACTOR, first_beyond_plausible_effort
 from ..core.yaml_files import read_yaml
 from ..errors import CollisionError
 from .observer import DEFAULT_GAIN_1_S, check_effort_delay
@@ -172,12 +172,11 @@ def require_plausible(thresholds: Thresholds, arm: ArmModel, where: str) -> None
     simulated recordings': 57 N·m at s1, under 20 N·m elsewhere); above it, detection at that joint
     would be silently off."""
     at_limit = thresholds.at(arm.velocity_limit_rad_s)
-    bound = PLAUSIBLE_FACTOR * arm.effort_limit_nm
-    over = np.flatnonzero(~(at_limit <= bound))
-    if over.size:
-        j = int(over[0])
+    beyond = first_beyond_plausible_effort(arm, at_limit)
+    if beyond is not None:
+        j, bound = beyond
         raise CollisionError(
             f"{where}: the {JOINT_SUFFIXES[j]} threshold at its velocity limit is {at_limit[j]:.3g} N·m, above "
-            f"{bound[j]:g} N·m ({PLAUSIBLE_FACTOR:g} × the joint's effort limit, more than a real Baxter gives): "
+            f"{bound:g} N·m ({PLAUSIBLE_FACTOR:g} × the joint's effort limit, more than a real Baxter gives): "
             "no collision could ever be detected there; calibrate again (baxter-dynamics calibrate, or ~/calibrate)"
         )
