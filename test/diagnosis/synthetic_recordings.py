@@ -9,13 +9,16 @@ quantisation. A few seconds of 100 Hz data build in milliseconds, so that the te
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import cache
 
 import numpy as np
 from reference_models import pinocchio_from_arm
 
 from baxter_dynamics_ros.core.arm_model import ArmModel
 from baxter_dynamics_ros.core.recording import Recording
+from baxter_dynamics_ros.diagnosis.procedure import DiagnosisResult, diagnose
 from baxter_dynamics_ros.diagnosis.statistics import Block, active_columns, column_layout, prepare, recording_blocks
+from baxter_dynamics_ros.diagnosis.validation import validation_arm
 
 N = 7
 EFFORT_QUANTUM_NM = 0.004
@@ -100,6 +103,15 @@ def friction_scenario(arm: ArmModel) -> tuple[list[tuple[str, Recording]], list[
     ]
     test = [("T1", recording(arm, 4, viscous=VISCOUS, coulomb=COULOMB)), ("T2", recording(arm, 5, 9.0, viscous=VISCOUS, coulomb=COULOMB))]
     return train, test
+
+
+@cache
+def friction_diagnosis() -> tuple[DiagnosisResult, list[tuple[str, Recording]], list[tuple[str, Recording]]]:
+    """(result, train, test): diagnose on :func:`friction_scenario` of the validation arm, run once
+    for every test module that reads it."""
+    arm = validation_arm()
+    train, test = friction_scenario(arm)
+    return diagnose(arm, train, test), train, test
 
 
 def reference_residuals(arm: ArmModel, rec: Recording, cutoff_hz: float) -> tuple[np.ndarray, np.ndarray]:

@@ -7,11 +7,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from synthetic_recordings import friction_scenario, recording, reference_residuals
+from synthetic_recordings import friction_diagnosis, recording, reference_residuals
 
 from baxter_dynamics_ros.diagnosis.gap_analysis import angle_histogram, quantile_edges, values_in_bins, wanted_bins
 from baxter_dynamics_ros.diagnosis.passes import test_figures as pass_test_figures
-from baxter_dynamics_ros.diagnosis.procedure import DiagnosisResult, diagnose
+from baxter_dynamics_ros.diagnosis.procedure import DiagnosisResult
 from baxter_dynamics_ros.diagnosis.sources import InMemory
 from baxter_dynamics_ros.diagnosis.statistics import CHUNK, column_layout
 from baxter_dynamics_ros.diagnosis.validation import validation_arm
@@ -25,9 +25,8 @@ def arm():
 
 
 @pytest.fixture(scope="module")
-def run(arm) -> tuple[DiagnosisResult, list, list]:
-    train, test = friction_scenario(arm)
-    return diagnose(arm, train, test), train, test
+def run() -> tuple[DiagnosisResult, list, list]:
+    return friction_diagnosis()
 
 
 def _rms(residuals: list[np.ndarray]) -> np.ndarray:

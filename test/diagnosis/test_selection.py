@@ -13,7 +13,7 @@ from math import factorial
 import numpy as np
 import pytest
 from scipy.stats import chi2
-from synthetic_recordings import block_edges, blocks_of, friction_scenario, recording
+from synthetic_recordings import block_edges, blocks_of, friction_diagnosis, recording
 
 from baxter_dynamics_ros.diagnosis.fit import DECORRELATION_S, Fit, Model
 from baxter_dynamics_ros.diagnosis.procedure import DiagnosisResult, diagnose
@@ -31,9 +31,8 @@ def arm():
 
 
 @pytest.fixture(scope="module")
-def friction_run(arm) -> tuple[DiagnosisResult, list, list]:
-    train, test = friction_scenario(arm)
-    return diagnose(arm, train, test), train, test
+def friction_run() -> tuple[DiagnosisResult, list, list]:
+    return friction_diagnosis()
 
 
 def _index(layout, name: str, variant: str | None = None) -> int:
