@@ -437,7 +437,8 @@ def rivalries(arm: ArmModel, layout: ColumnLayout, pool: Pool, final: Evaluation
             (rival,) = pair - {name}
             if rival in names and not (rival == "torque_offset" and S1 not in names[rival].joints):
                 continue  # both selected: the data told them apart
-            trials = [search.evaluate(m) for index, c in enumerate(layout.candidates) if c.name == rival for m in [search.in_place_of(final.model, term, index)] if m is not None]
+            swaps = (search.in_place_of(final.model, term, index) for index, c in enumerate(layout.candidates) if c.name == rival)
+            trials = [search.evaluate(m) for m in swaps if m is not None]
             if not trials:
                 continue
             best = min(trials, key=lambda ev: ev.score)
