@@ -300,13 +300,17 @@ def _json_ready(value):
 
 def effects_yaml(result: DiagnosisResult) -> str:
     """effects.yaml: the selected effects (zero at the joints they do not act on), and beside them
-    the joints each acts on, the uncertain ones, the q̈ filter they were fitted with and drifting offsets."""
+    the joints each acts on, the uncertain ones, the q̇ filter they were fitted with (q̈'s, and
+    friction's argument) and drifting offsets."""
     selected = [e for e in result.selected() if e.effect is not None]
     drift = next((e.drift for e in selected if e.drift), None)
     doc = {
         "arm": result.arm_side,
         "source": "baxter-dynamics diagnose",
-        "q_ddot": {"estimator": "zero-phase low-pass of q̇, then central differences", "cutoff_hz": result.cutoff_hz},
+        "q_ddot": {
+            "estimator": "zero-phase low-pass of q̇, then central differences; friction fitted on the low-passed q̇",
+            "cutoff_hz": result.cutoff_hz,
+        },
         "joints": {e.name: list(e.joints) for e in selected},
         "uncertain": [e.name for e in selected if e.uncertain],
         **({"offset_drift": {"joints": drift["drifting"], "per_recording_nm": drift["per_recording_nm"]}} if drift and drift["drifting"] else {}),

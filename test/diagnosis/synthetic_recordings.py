@@ -114,15 +114,20 @@ def friction_diagnosis() -> tuple[DiagnosisResult, list[tuple[str, Recording]], 
     return diagnose(arm, train, test), train, test
 
 
+def lowpassed_velocity(rec: Recording, cutoff_hz: float) -> np.ndarray:
+    """(n, 7) rad/s, the recording's q̇ low-passed forwards and backwards by scipy (Butterworth,
+    order 2, at cutoff_hz): the denoised world's q̇."""
+    from scipy.signal import butter, sosfiltfilt
+
+    return sosfiltfilt(butter(2, cutoff_hz, fs=rec.rate_hz, output="sos"), rec.qd, axis=0)
+
+
 def reference_residuals(arm: ArmModel, rec: Recording, cutoff_hz: float) -> tuple[np.ndarray, np.ndarray]:
     """(raw, denoised) rigid residuals (n, 7) N·m of a recording, without the package's dynamics:
     Pinocchio's RNEA with q̈ the first difference of q̇ (q̈_0 = 0), and with q̈ the central
     difference of q̇ low-passed forwards and backwards by scipy (Butterworth, order 2, at cutoff_hz)."""
-    from scipy.signal import butter, sosfiltfilt
-
     t = rec.stamps_s
     qdd_raw = np.zeros_like(rec.qd)
     qdd_raw[1:] = np.diff(rec.qd, axis=0) / np.diff(t)[:, None]
-    smooth = sosfiltfilt(butter(2, cutoff_hz, fs=rec.rate_hz, output="sos"), rec.qd, axis=0)
-    qdd = np.gradient(smooth, 1.0 / rec.rate_hz, axis=0)
+    qdd = np.gradient(lowpassed_velocity(rec, cutoff_hz), 1.0 / rec.rate_hz, axis=0)
     return rec.effort - rigid_torque(arm, rec.q, rec.qd, qdd_raw), rec.effort - rigid_torque(arm, rec.q, rec.qd, qdd)

@@ -2,8 +2,8 @@
 
 The withheld-effect tests judge the diagnosis by what it writes: effects.yaml is read back and the
 held-out residual recomputed from it and the test recordings alone, with Pinocchio for the rigid
-body (the compensated arm's inertials), scipy for the q̈ filter it names, and the effects' own
-definitions for their shares.
+body (the compensated arm's inertials), scipy for the q̇ filter it names (q̈ and friction's argument),
+and the effects' own definitions for their shares.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from scipy.signal import butter, sosfiltfilt
 
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.core.effect_specs import effects_from_dict, load_effects
-from baxter_dynamics_ros.core.effects import Delay, InertialError, Payload
+from baxter_dynamics_ros.core.effects import CoulombFriction, Delay, InertialError, Payload, StribeckFriction, ViscousFriction
 from baxter_dynamics_ros.core.recording import Recording
 from baxter_dynamics_ros.diagnosis.fit import COM_BOX_M, MASS_RANGE, PAYLOAD_COM_BOX_M, PAYLOAD_MASS_KG
 from baxter_dynamics_ros.diagnosis.procedure import CANDIDATE_NAMES, diagnose
@@ -86,7 +86,8 @@ def held_out_from_yaml(text: str, arm, test) -> tuple[float, dict[str, np.ndarra
                 share = np.stack([np.interp(t - e.delay_s[j], t, tau_nominal[:, j]) for j in range(7)], axis=1) - tau_nominal
                 model = model + share
             else:
-                share = e.torque(arm, rec.q, rec.qd, qdd)
+                friction = isinstance(e, (ViscousFriction, CoulombFriction, StribeckFriction))
+                share = e.torque(arm, rec.q, qd_smooth if friction else rec.qd, qdd)
                 model = model + share
             shares[e.name].append(share)
         total += float(np.sum((rec.effort - model) ** 2))

@@ -13,7 +13,7 @@ from math import factorial
 import numpy as np
 import pytest
 from scipy.stats import chi2
-from synthetic_recordings import block_edges, blocks_of, friction_diagnosis, recording
+from synthetic_recordings import block_edges, blocks_of, friction_diagnosis, lowpassed_velocity, recording
 
 from baxter_dynamics_ros.diagnosis.fit import DECORRELATION_S, Fit, Model
 from baxter_dynamics_ros.diagnosis.procedure import DiagnosisResult, diagnose
@@ -48,8 +48,8 @@ def _ls_sse(x_fit: list[np.ndarray], r_fit: list[np.ndarray], x_out: np.ndarray,
 # ----------------------------------------------------------------------------- the score
 def test_score_is_akaike_on_held_out_error(arm) -> None:
     """With viscous friction alone injected, the selected model's score equals Σ_j w_j CV_j · n_eff/n
-    + 2 p, written out by hand: CV_j from numpy's least squares of the denoised residual on q̇_j
-    fitted on one recording and measured on the other, w_j = n / CV_j, n_eff the blocks' spans over
+    + 2 p, written out by hand: CV_j from numpy's least squares of the denoised residual on q̇_j (low-
+    passed at the cut-off by scipy) fitted on one recording and measured on the other, w_j = n / CV_j, n_eff the blocks' spans over
     0.1 s, p the viscous parameters (no prior, bounds inactive)."""
     layout = column_layout()
     named = [("A", recording(arm, 11, viscous=[2.0, 3.0, 1.2, 1.2, 0.3, 0.3, 0.1])), ("B", recording(arm, 12, viscous=[2.0, 3.0, 1.2, 1.2, 0.3, 0.3, 0.1]))]
@@ -58,13 +58,14 @@ def test_score_is_akaike_on_held_out_error(arm) -> None:
     viscous = _index(layout, "viscous_friction")
     assert [t.candidate for t in selection.model.terms] == [viscous]
     joints = selection.model.terms[0].joints
-    prepared = [prepare(arm, rec, CUTOFF_HZ) for _, rec in named]
+    residual = [prepare(arm, rec, CUTOFF_HZ).residual for _, rec in named]
+    velocity = [lowpassed_velocity(rec, CUTOFF_HZ) for _, rec in named]
     cv = np.zeros(N)
     for j in range(N):
         for out in range(2):
-            cols = lambda p: p.qd[:, [j]] if j in joints else np.zeros((len(p.qd), 0))  # noqa: E731
-            fit_on = [p for k, p in enumerate(prepared) if k != out]
-            cv[j] += _ls_sse([cols(p) for p in fit_on], [p.residual[:, j] for p in fit_on], cols(prepared[out]), prepared[out].residual[:, j])
+            cols = lambda k: velocity[k][:, [j]] if j in joints else np.zeros((len(velocity[k]), 0))  # noqa: E731
+            fit_on = [k for k in range(2) if k != out]
+            cv[j] += _ls_sse([cols(k) for k in fit_on], [residual[k][:, j] for k in fit_on], cols(out), residual[out][:, j])
     n = sum(len(rec) for _, rec in named)
     span = sum(float(rec.stamps_s[hi - 1] - rec.stamps_s[lo]) for _, rec in named for lo, hi in block_edges(len(rec), 4))
     lam = n / max(span / DECORRELATION_S, 1.0)
