@@ -31,7 +31,7 @@ from .paths import check_paths
 from .workers import add_worker_arguments, check_scheduler, file_mapper
 
 if TYPE_CHECKING:
-    from ..diagnosis.procedure import DiagnosisResult
+    from ..diagnosis.result import DiagnosisResult
     from ..diagnosis.sources import Mapper
 
 

@@ -26,18 +26,20 @@ Method:
    the selected set leaves a joint worse than the denoised rigid model. Offsets that differ between
    recordings are reported as drift, with each recording's value.
 
-Everything here is numpy and scipy; no ROS.
+This module is the pipeline (:func:`diagnose`) and each candidate's report; the result it returns is
+:mod:`.result`, the inertial effects' physical report :mod:`.inertial_report`, the Shapley shares
+and the step-by-step held-out error :mod:`.attribution`. Everything here is numpy and scipy; no ROS.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from functools import partial
 
 import numpy as np
 
-from ..core.arm_model import ArmModel, pseudo_inertia
+from ..core.arm_model import ArmModel
 from ..core.effects import (
     EFFECTS,
     Armature,
@@ -53,205 +55,29 @@ from ..core.effects import (
     ViscousFriction,
 )
 from ..core.joints import JOINTS as N
-from ..core.log_cholesky import pseudo_from_log_cholesky
 from ..core.recording import MIN_FIT_S, Recording, require_total_span
 from ..errors import DiagnosisError, RecordingError
-from .fit import MAX_OFFSET_DRIFT_NM, Fit, Fitter, Model, Term
+from .attribution import Scoring, add_shares_and_steps
+from .fit import MAX_OFFSET_DRIFT_NM, Fit, Model, Term
 from .gap_analysis import GapSummary, gap_summary, quantile_edges, wanted_bins
+from .inertial_report import inertial_params, inertial_quantities
 from .passes import Reduction, Screening, TestFigures, reduce, screen, test_figures
-from .selection import FAMILY_OF, MIN_JOINT_GAIN, MIN_JOINT_GAIN_NM, Evaluation, Rivalry, rivalries, select
+from .result import DiagnosisResult, EffectReport, hidden_torque, joint_list, test_verdict
+from .selection import FAMILY_OF, MIN_JOINT_GAIN, MIN_JOINT_GAIN_NM, Evaluation, Rivalry, explain_unselected, rivalries, select
 from .sources import InMemory, Mapper, Source, serial_map
 from .statistics import Block, Candidate, ColumnLayout, Pool, active_columns, choose_cutoff, column_layout
 
-__all__ = ["CANDIDATE_NAMES", "STABLE_FRACTION", "DiagnosisResult", "EffectReport", "diagnose"]
+__all__ = ["BLOCKS_PER_RECORDING", "CANDIDATE_NAMES", "MAX_SERIES_POINTS", "diagnose"]
 
 #: The candidate effects: every effect of the library, in its order.
 CANDIDATE_NAMES = tuple(EFFECTS)
 #: Contiguous blocks each training recording is cut into (the statistics' unit).
 BLOCKS_PER_RECORDING = 4
-#: Effects chosen in fewer than this fraction of the cross-validation folds are uncertain.
-STABLE_FRACTION = 0.75
-#: A joint's held-out RMS that changes by less than this fraction counts as unchanged.
-VERDICT_TOLERANCE = 0.01
 #: The report's residual series keep at most this many test samples (every k-th).
 MAX_SERIES_POINTS = 20000
 
 
-@dataclass(frozen=True)
-class EffectReport:
-    """One candidate's outcome. Arrays (7,) are per joint, N·m.
-
-    params / params_std: the fitted parameters by name and their standard deviation (the fit's
-    covariance with effective samples, plus the spread across the cross-validation folds);
-    params_fold_spread: that spread alone (jackknife SD of the folds' fits; the inertial effects'
-    parameters are in ``inertial``);
-    share: the part of the gap it explains, N·m² per sample summed over the joints, the rank's key:
-    for acceleration_noise the rigid residual's fall from raw to filtered q̈; for a physical effect
-    its Shapley share of the training residual's fall from the denoised rigid model to the selected
-    set (each subset of the selected effects refitted; what effects explain together is split
-    equally among them, so no order of adding them matters); cv_gain: held-out (cross-validated) squared error it removes, N·m² per sample summed over the
-    joints — for a selected effect, what removing it from the selected set would add back; for an
-    unselected one, what adding it would remove. folds_selected of folds: the stability count;
-    joint_folds: the same per joint for per-joint effects. test_verdict: per joint it acts on,
-    the held-out RMS with and without it (both fitted on the training data) and "helped" / "hurt" /
-    "no change". drift: per-recording offsets (torque_offset). inertial: the changed links'
-    inertials before and after (payload, inertial_error).
-    """
-
-    name: str
-    variant: str
-    selected: bool
-    rank: int
-    reason: str
-    params: dict[str, float]
-    params_std: dict[str, float]
-    joints: tuple[str, ...]
-    cv_gain: float
-    test_rms_before: np.ndarray
-    test_rms_after: np.ndarray
-    effect: Effect | None = None
-    cutoff_hz: float | None = None
-    folds_selected: int = 0
-    folds: int = 0
-    joint_folds: dict[str, int] = field(default_factory=dict)
-    test_verdict: dict[str, dict] = field(default_factory=dict)
-    drift: dict | None = None
-    inertial: list[dict] | None = None
-    share: float = 0.0
-    params_fold_spread: dict[str, float] = field(default_factory=dict)
-    alternative_folds: dict[str, int] = field(default_factory=dict)
-    #: the effects the training data cannot tell from this one (:class:`~.selection.Rivalry`)
-    not_distinguishable_from: tuple[str, ...] = ()
-
-    @property
-    def uncertain_joints(self) -> tuple[str, ...]:
-        """Joints of a selected per-joint effect that fewer than ¾ of the folds chose."""
-        if not self.selected or not self.folds:
-            return ()
-        return tuple(j for j, k in self.joint_folds.items() if k < STABLE_FRACTION * self.folds)
-
-    @property
-    def uncertain(self) -> bool:
-        """Selected in fewer than ¾ of the cross-validation folds."""
-        return self.selected and self.folds > 0 and self.folds_selected < STABLE_FRACTION * self.folds
-
-
-@dataclass(frozen=True)
-class DiagnosisResult:
-    """Everything the report and diagnosis.json hold (see :meth:`to_dict`)."""
-
-    arm_side: str
-    joint_names: tuple[str, ...]
-    train_files: tuple[str, ...]
-    test_files: tuple[str, ...]
-    holdout: str
-    folds: int
-    cutoff_hz: float
-    baseline_train_rms: np.ndarray
-    baseline_test_rms: np.ndarray
-    denoised_test_rms: np.ndarray
-    final_test_rms: np.ndarray
-    effects: tuple[EffectReport, ...]
-    gap: GapSummary  # where the gap lies, on the test data, rigid model with raw q̈
-    gap_filtered: GapSummary  # the same with the denoised q̈
-    search: tuple[str, ...]  # the selection's moves, in order
-    test_series: dict[str, np.ndarray] = field(repr=False)
-
-    def selected(self) -> tuple[EffectReport, ...]:
-        return tuple(e for e in self.effects if e.selected)
-
-    @property
-    def worse_joints(self) -> tuple[str, ...]:
-        """Joints whose held-out RMS with the selected effects exceeds the denoised rigid model's."""
-        worse = self.final_test_rms > self.denoised_test_rms * (1.0 + VERDICT_TOLERANCE)
-        return tuple(n for n, w in zip(self.joint_names, worse) if w)
-
-    def warnings(self) -> list[str]:
-        """Plain statements for the top of the report."""
-        out = []
-        if self.worse_joints:
-            out.append(
-                "The selected effects make the held-out residual WORSE than the denoised rigid-body model at "
-                + ", ".join(self.worse_joints)
-                + ": the fitted set does not carry over to the test data there."
-            )
-        offset = next((e for e in self.selected() if e.drift and e.drift["held_common"]), None)
-        if offset is not None:
-            out.append("Torque offsets: " + _hidden_torque(offset.drift["held_common"]) + ".")
-        for e in self.selected():
-            if e.not_distinguishable_from:
-                out.append(f"{e.name} is not distinguishable on this data from {', '.join(e.not_distinguishable_from)} (see its reason).")
-        uncertain = [e.name for e in self.selected() if e.uncertain]
-        if uncertain:
-            out.append(
-                f"Uncertain (chosen in fewer than {STABLE_FRACTION:.0%} of the {self.folds} cross-validation folds): " + ", ".join(uncertain) + "."
-            )
-        partly = [f"{e.name} at {_short(e.uncertain_joints)}" for e in self.selected() if not e.uncertain and e.uncertain_joints]
-        if partly:
-            out.append(f"Uncertain at some joints (chosen there in fewer than {STABLE_FRACTION:.0%} of the folds): " + "; ".join(partly) + ".")
-        if self.folds <= 2:
-            out.append(f"Only {self.folds} cross-validation folds: a weak vote; more training recordings would make the selection firmer.")
-        return out
-
-    def to_dict(self) -> dict:
-        """Plain JSON-ready form; the schema is documented in the README."""
-        rms = lambda a: [round(float(x), 6) for x in a]  # noqa: E731
-        return {
-            "arm": self.arm_side,
-            "joints": list(self.joint_names),
-            "train_files": list(self.train_files),
-            "test_files": list(self.test_files),
-            "holdout": self.holdout,
-            "folds": self.folds,
-            "q_ddot_cutoff_hz": self.cutoff_hz,
-            "baseline": {
-                "q_ddot": "first difference of q̇ (the paper's)",
-                "train_rms": rms(self.baseline_train_rms),
-                "test_rms": rms(self.baseline_test_rms),
-            },
-            "denoised": {"q_ddot": f"zero-phase low-pass of q̇ at {self.cutoff_hz:g} Hz", "test_rms": rms(self.denoised_test_rms)},
-            "effects": [
-                {
-                    "name": e.name,
-                    "variant": e.variant,
-                    "rank": e.rank,
-                    "selected": e.selected,
-                    "uncertain": e.uncertain,
-                    "reason": e.reason,
-                    "joints": list(e.joints),
-                    "params": e.params,
-                    "params_std": e.params_std,
-                    "params_fold_spread": e.params_fold_spread,
-                    "share_nm2": e.share,
-                    "cv_gain_nm2": e.cv_gain,
-                    "folds_selected": e.folds_selected,
-                    "folds": e.folds,
-                    "joint_folds": e.joint_folds,
-                    "uncertain_joints": list(e.uncertain_joints),
-                    "alternative_folds": e.alternative_folds,
-                    "not_distinguishable_from": list(e.not_distinguishable_from),
-                    "test_rms_before": rms(e.test_rms_before),
-                    "test_rms_after": rms(e.test_rms_after),
-                    "test_verdict": e.test_verdict,
-                    **({"cutoff_hz": e.cutoff_hz} if e.cutoff_hz is not None else {}),
-                    **({"drift": e.drift} if e.drift is not None else {}),
-                    **({"inertial": e.inertial} if e.inertial is not None else {}),
-                }
-                for e in self.effects
-            ],
-            "final": {"test_rms": rms(self.final_test_rms)},
-            "verdict": {"worse_than_denoised": list(self.worse_joints), "warnings": self.warnings()},
-            "search": list(self.search),
-            "gap": self.gap.to_dict(),
-            "gap_filtered_q_ddot": self.gap_filtered.to_dict(),
-        }
-
-
 # ----------------------------------------------------------------------------- helpers
-def _short(names: Sequence[str]) -> str:
-    return ", ".join(n.split("_", 1)[-1] for n in names)
-
-
 def _rms(sse: np.ndarray, n: int) -> np.ndarray:
     return np.sqrt(np.maximum(sse, 0.0) / n)
 
@@ -277,91 +103,12 @@ def _effect_of(cand: Candidate, values: np.ndarray, phi: np.ndarray | None) -> E
     if isinstance(t, S1Spring):
         return S1Spring(preload_nm=values[0], linear_nm_rad=values[1], cosine_nm=values[2], sine_nm=values[3])
     if isinstance(t, Payload):
-        m, c, inertia = _inertial_quantities(phi[0])
+        m, c, inertia = inertial_quantities(phi[0])
         return Payload(mass_kg=m, com_m=c, inertia_kgm2=inertia[[0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]])
     return InertialError(parameter_change=values)
 
 
-def _inertial_quantities(phi: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-    """Mass (kg), centre of mass (3,) m and inertia tensor about it (3, 3) kg·m² of one link's φ."""
-    j = pseudo_from_log_cholesky(phi)
-    m = float(j[3, 3])
-    c = j[:3, 3] / m
-    sigma = j[:3, :3] - m * np.outer(c, c)
-    return m, c, np.trace(sigma) * np.eye(3) - sigma
-
-
-#: The physical quantities of a link reported, with the flat index they take in
-#: [m, c (3), inertia about the centre of mass (xx xy xz yy yz zz)].
-_QUANTITY_NAMES = ("mass", "com x", "com y", "com z", "Ixx", "Ixy", "Ixz", "Iyy", "Iyz", "Izz")
-
-
-def _quantity_vector(phi: np.ndarray) -> np.ndarray:
-    m, c, inertia = _inertial_quantities(phi)
-    return np.concatenate([[m], c, inertia[[0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]]])
-
-
-#: φ's coordinates with a bound, and the quantity each is: α the mass, t the centre of mass.
-_BOUNDED = {0: "mass", 7: "com x", 8: "com y", 9: "com z"}
-
-
-def _link_report(name: str, phi: np.ndarray, cov: np.ndarray, setup: tuple[np.ndarray, ...], before: tuple | None) -> dict:
-    """One link's (or the payload's) inertials after the fit, their SD, and what the data decided.
-
-    setup: the link's (prior std (10,), lower (10,), upper (10,)) of φ. A quantity is *decided by
-    the data* when its posterior variance is less than half its prior variance (linearised at the
-    fit); the others are set by the prior (the paper's values). A mass or centre-of-mass coordinate
-    held at its bound is listed under ``at_bound`` (its SD is then null): the bound decided it, not
-    the data — the sign of a link made to absorb what another effect would explain.
-    """
-    prior_std, lo, hi = setup
-    value = _quantity_vector(phi)
-    jac = np.empty((10, 10))
-    for k in range(10):
-        step = np.zeros(10)
-        step[k] = 1e-6
-        jac[:, k] = (_quantity_vector(phi + step) - _quantity_vector(phi - step)) / 2e-6
-    post = np.diag(jac @ cov @ jac.T)
-    prior = np.diag(jac @ np.diag(prior_std**2) @ jac.T)
-    width = np.where(np.isfinite(hi - lo), hi - lo, 1.0)
-    pinned = [q for k, q in _BOUNDED.items() if min(phi[k] - lo[k], hi[k] - phi[k]) <= 1e-6 * width[k]]
-    undecided = [q for q, a, b in zip(_QUANTITY_NAMES, post, prior) if q not in pinned and b > 0 and a > 0.5 * b]
-    std = {q: (None if q in pinned else float(np.sqrt(max(v, 0.0)))) for q, v in zip(_QUANTITY_NAMES, post)}
-    out = {
-        "link": name,
-        "mass_kg": float(value[0]),
-        "com_m": value[1:4].tolist(),
-        "inertia_about_com_kgm2": value[4:].tolist(),
-        "std": std,
-        "set_by_prior": undecided,
-        "at_bound": pinned,
-    }
-    if before is not None:
-        m, c, inertia = before
-        out["before"] = {"mass_kg": m, "com_m": list(c), "inertia_about_com_kgm2": inertia[[0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]].tolist()}
-    return out
-
-
 # ----------------------------------------------------------------------------- the procedure
-@dataclass
-class _Context:
-    arm: ArmModel
-    layout: ColumnLayout
-    pool: Pool
-    test: Pool
-    fitter: Fitter  # of the final model's weights, exact
-
-    def evaluate(self, model: Model) -> tuple[np.ndarray, Fit, list[Fit]]:
-        cv, folds, _ = self.fitter.cv_sse(model)
-        return cv, self.fitter.fit(model), folds
-
-    def test_sse(self, model: Model, fit: Fit) -> np.ndarray:
-        return self.fitter.sse(self.fitter.columns(model), fit.x, self.test.H, self.test.b, self.test.rr)
-
-    def test_rms(self, model: Model) -> np.ndarray:
-        return _rms(self.test_sse(model, self.fitter.fit(model)), self.test.samples)
-
-
 def diagnose(
     arm: ArmModel,
     train: Sequence[Source | tuple[str, Recording]],
@@ -420,7 +167,7 @@ def diagnose(
     selection = select(arm, layout, pool)
     step()
     final = selection.model
-    ctx = _Context(arm, layout, pool, test_pool, selection.fitter)
+    ctx = Scoring(arm, layout, pool, test_pool, selection.fitter)
     fold_models = mapper(partial(_fold_model, arm, layout), pool.fold_blocks())
     step()
 
@@ -428,7 +175,7 @@ def diagnose(
     reports = _selected_reports(ctx, selection.evaluation, fold_models, rivals)
     reports.append(_noise_report(ctx, cutoff))
     reports += _unselected_reports(ctx, selection.evaluation, {r.name for r in reports if r.selected}, rivals)
-    reports = _cumulative(ctx, final, reports)
+    reports = add_shares_and_steps(ctx, final, reports)
     ordered = sorted(reports, key=lambda e: (not e.selected, -(e.share if e.selected else e.cv_gain)))
     ranked = tuple(replace(e, rank=i + 1) for i, e in enumerate(ordered))
     step()
@@ -443,10 +190,23 @@ def diagnose(
     tick(steps[1], steps[1])
     holdout = "leave one training recording out" if len(train) > 1 else f"{BLOCKS_PER_RECORDING} contiguous blocks of the training recording, one left out at a time"
     return DiagnosisResult(
-        arm.side, tuple(arm.joint_names), tuple(s.label for s in train_sources), tuple(s.label for s in test_sources), holdout, len(pool.groups), cutoff,
-        _rms(pool.rr_raw, n_train), _rms(test_pool.rr_raw, n_test), _rms(test_pool.rr, n_test), final_rms,
-        ranked, gap, gap_filtered, selection.moves, series,
-    )  # fmt: skip
+        arm_side=arm.side,
+        joint_names=tuple(arm.joint_names),
+        train_files=tuple(s.label for s in train_sources),
+        test_files=tuple(s.label for s in test_sources),
+        holdout=holdout,
+        folds=len(pool.groups),
+        cutoff_hz=cutoff,
+        baseline_train_rms=_rms(pool.rr_raw, n_train),
+        baseline_test_rms=_rms(test_pool.rr_raw, n_test),
+        denoised_test_rms=_rms(test_pool.rr, n_test),
+        final_test_rms=final_rms,
+        effects=ranked,
+        gap=gap,
+        gap_filtered=gap_filtered,
+        search=selection.moves,
+        test_series=series,
+    )
 
 
 def _as_sources(items: Sequence[Source | tuple[str, Recording]]) -> list[Source]:
@@ -466,7 +226,7 @@ def _reduce_one(arm: ArmModel, layout: ColumnLayout, active: list[np.ndarray], c
     return reduce(arm, layout, active, cutoff, *job)
 
 
-def _term_values(ctx: _Context, model: Model, fit: Fit, term: Term) -> tuple[np.ndarray, np.ndarray]:
+def _term_values(ctx: Scoring, model: Model, fit: Fit, term: Term) -> tuple[np.ndarray, np.ndarray]:
     """(values, positions): the candidate's full parameter vector (zeros off its joints) from a fit,
     and for each entry its position in the fit's x (−1 where it does not act)."""
     cand = ctx.layout.candidates[term.candidate]
@@ -496,7 +256,7 @@ def _spread(fit: Fit, folds: list[Fit], positions: np.ndarray) -> np.ndarray:
     return np.sqrt(np.diag(fit.cov_x)[positions] + _fold_spread(folds, positions) ** 2)
 
 
-def _selected_reports(ctx: _Context, ev: Evaluation, fold_models: list[Model], rivals: list[Rivalry]) -> list[EffectReport]:
+def _selected_reports(ctx: Scoring, ev: Evaluation, fold_models: list[Model], rivals: list[Rivalry]) -> list[EffectReport]:
     """Reports of the selected effects: parameters, drop-one gains, stability, verdict, drift, rivals."""
     final = ev.model
     n = ctx.pool.samples
@@ -521,13 +281,13 @@ def _selected_reports(ctx: _Context, ev: Evaluation, fold_models: list[Model], r
         params_fold_spread = {k: float(s) for k, s, a in zip(names, fold_std, acting) if a}
         inertial = None
         if cand.kind == "inertial":
-            params, params_std, inertial = _inertial_params(ctx, cand, term, ev.fit)
+            params, params_std, inertial = inertial_params(ctx.arm, ctx.fitter, cand, term, ev.fit)
         without = final.without(term.candidate)
         cv_without, _, _ = ctx.evaluate(without)
         gain = float(np.sum(cv_without - ev.cv)) / n
         test_without = ctx.test_rms(without)
         joints = tuple(ctx.arm.joint_names[j] for j in term.joints)
-        verdict = {name: _verdict(test_without[j], final_test[j]) for j, name in enumerate(ctx.arm.joint_names) if name in joints}
+        verdict = {name: test_verdict(test_without[j], final_test[j]) for j, name in enumerate(ctx.arm.joint_names) if name in joints}
         same_effect = [next((t for t in fm.terms if ctx.layout.candidates[t.candidate].name == cand.name), None) for fm in fold_models]
         folds_selected = sum(t is not None for t in same_effect)
         joint_folds = {}
@@ -539,19 +299,20 @@ def _selected_reports(ctx: _Context, ev: Evaluation, fold_models: list[Model], r
         }
         alternatives = {k: v for k, v in alternatives.items() if v}
         drift = _offset_drift(ctx, final, ev.fit, term) if cand.name == "torque_offset" else None
-        reason = f"removes {gain:.4g} N·m² per sample of held-out error (cross-validated); at {_short(joints)}"
+        reason = f"removes {gain:.4g} N·m² per sample of held-out error (cross-validated); at {joint_list(joints)}"
         if alternatives:
             reason += "; in other folds its alternative " + ", ".join(f"{k} ({v} of {len(fold_models)})" for k, v in alternatives.items())
         if drift is not None and drift["drifting"]:
-            reason += f"; drifts between recordings at {_short(drift['drifting'])} (see drift)"
+            reason += f"; drifts between recordings at {joint_list(drift['drifting'])} (see drift)"
         if drift is not None and drift["held_common"]:
-            reason += "; " + _hidden_torque(drift["held_common"])
+            reason += "; " + hidden_torque(drift["held_common"])
         mine = [r for r in rivals if r.selected == cand.name]
         for r in mine:
             reason += "; " + r.sentence(cand.name)
         out.append(
             EffectReport(
-                cand.name, cand.variant, True, 0, reason, params, params_std, joints, gain, final_test, final_test, effect,
+                name=cand.name, variant=cand.variant, selected=True, reason=reason, test_rms_before=final_test, test_rms_after=final_test,
+                params=params, params_std=params_std, joints=joints, cv_gain=gain, effect=effect,
                 folds_selected=folds_selected, folds=len(fold_models), joint_folds=joint_folds, test_verdict=verdict,
                 drift=drift, inertial=inertial, params_fold_spread=params_fold_spread, alternative_folds=alternatives,
                 not_distinguishable_from=tuple(r.rival for r in mine),
@@ -560,50 +321,7 @@ def _selected_reports(ctx: _Context, ev: Evaluation, fold_models: list[Model], r
     return out
 
 
-def _verdict(without: float, with_: float) -> dict:
-    change = (with_ - without) / max(without, 1e-300)
-    word = "helped" if change < -VERDICT_TOLERANCE else ("hurt" if change > VERDICT_TOLERANCE else "no change")
-    return {"verdict": word, "rms_without": float(without), "rms_with": float(with_)}
-
-
-def _inertial_params(ctx: _Context, cand: Candidate, term: Term, fit: Fit) -> tuple[dict, dict, list[dict]]:
-    """Payload / inertial change: physical parameters, their SD and the per-link report."""
-    phi = fit.phi[term.candidate]
-    cov = fit.phi_cov[term.candidate]
-    _, prior_std, lower, upper, _ = ctx.fitter.link_setup(cand)
-    links = []
-    if cand.name == "payload":
-        rep = _link_report("payload", phi[0], cov, (prior_std[0], lower[0], upper[0]), None)
-        params = {"mass_kg": rep["mass_kg"], **{f"com_m[{a}]": v for a, v in zip("xyz", rep["com_m"])}}
-        params.update({f"inertia_kgm2[{q}]": v for q, v in zip(("xx", "xy", "xz", "yy", "yz", "zz"), rep["inertia_about_com_kgm2"])})
-        std = {k: _nan_if_none(v) for k, v in zip(params, rep["std"].values())}
-        return params, std, [rep]
-    params, std = {}, {}
-    for i, link_index in enumerate(cand.links):
-        link = ctx.arm.links[link_index]
-        j0 = pseudo_inertia(link)
-        m0 = float(j0[3, 3])
-        before = (m0, link.com_m, link.inertia_kgm2)
-        rep = _link_report(
-            f"link {link_index + 1} ({link.name})", phi[i], cov[10 * i : 10 * i + 10, 10 * i : 10 * i + 10], (prior_std[i], lower[i], upper[i]), before
-        )
-        sd = np.array([rep["std"][q] if rep["std"][q] is not None else 0.0 for q in ("mass", "com x", "com y", "com z")])
-        change = np.abs(np.concatenate([[rep["mass_kg"] - m0], np.array(rep["com_m"]) - link.com_m]))
-        rep["changed"] = bool(rep["at_bound"]) or bool(np.any(change > 2 * sd))
-        links.append(rep)
-        params[f"link{link_index + 1}.mass_kg"] = rep["mass_kg"]
-        std[f"link{link_index + 1}.mass_kg"] = _nan_if_none(rep["std"]["mass"])
-        for a, v, q in zip("xyz", rep["com_m"], ("com x", "com y", "com z")):
-            params[f"link{link_index + 1}.com_m[{a}]"] = v
-            std[f"link{link_index + 1}.com_m[{a}]"] = _nan_if_none(rep["std"][q])
-    return params, std, links
-
-
-def _nan_if_none(value: float | None) -> float:
-    return float("nan") if value is None else float(value)
-
-
-def _offset_drift(ctx: _Context, model: Model, fit: Fit, term: Term) -> dict:
+def _offset_drift(ctx: Scoring, model: Model, fit: Fit, term: Term) -> dict:
     """Each training recording's own offsets (fitted as such: ``Fitter`` profiles them out), their
     spread, and the joints where the spread exceeds twice the uncertainty of one recording's own
     offset (its residual level over its effective samples) and 0.01 N·m.
@@ -644,16 +362,7 @@ def _offset_drift(ctx: _Context, model: Model, fit: Fit, term: Term) -> dict:
     }
 
 
-def _hidden_torque(held: dict[str, float]) -> str:
-    """The sentence for offsets held common: a state-dependent torque, not a sensor's drift."""
-    where = ", ".join(f"{n.split('_', 1)[-1]} ({d:.3g} N·m)" for n, d in held.items())
-    return (
-        f"each recording's own offset would depart from their mean by more than a sensor drifts ({MAX_OFFSET_DRIFT_NM:g} N·m) at {where}: "
-        "a state-dependent torque the selected effects lack, not drift; one offset is held for all recordings there"
-    )
-
-
-def _noise_report(ctx: _Context, cutoff: float) -> EffectReport:
+def _noise_report(ctx: Scoring, cutoff: float) -> EffectReport:
     """acceleration_noise: the share of the gap that the zero-phase filter of q̇ alone removes."""
     pool = ctx.pool
     n = pool.samples
@@ -664,7 +373,7 @@ def _noise_report(ctx: _Context, cutoff: float) -> EffectReport:
     votes = sum(bool(_gain_ok(pool.group_rr_raw[g], pool.group_rr[g], pool.group_samples[g]).any()) for g in range(len(pool.groups)))
     raw_test = _rms(ctx.test.rr_raw, ctx.test.samples)
     den_test = _rms(ctx.test.rr, ctx.test.samples)
-    verdict = {name: _verdict(raw_test[j], den_test[j]) for j, name in enumerate(ctx.arm.joint_names)}
+    verdict = {name: test_verdict(raw_test[j], den_test[j]) for j, name in enumerate(ctx.arm.joint_names)}
     selected = bool(ok.any())
     reason = (
         f"filtering q̇ at {cutoff:g} Hz before differentiating removes {gain:.4g} N·m² per sample of the training residual (no fit)"
@@ -672,9 +381,9 @@ def _noise_report(ctx: _Context, cutoff: float) -> EffectReport:
         else f"filtering q̇ removes no joint's error by {MIN_JOINT_GAIN:.0%} and {MIN_JOINT_GAIN_NM:g} N·m RMS"
     )
     return EffectReport(
-        "acceleration_noise", f"zero-phase low-pass {cutoff:g} Hz", selected, 0, reason, {"cutoff_hz": cutoff}, {}, joints, gain,
-        raw_test, den_test, None, cutoff, folds_selected=votes if selected else 0, folds=len(pool.groups), test_verdict=verdict,
-        share=gain,
+        name="acceleration_noise", variant=f"zero-phase low-pass {cutoff:g} Hz", selected=selected, reason=reason,
+        test_rms_before=raw_test, test_rms_after=den_test, params={"cutoff_hz": cutoff}, joints=joints, cv_gain=gain,
+        cutoff_hz=cutoff, folds_selected=votes if selected else 0, folds=len(pool.groups), test_verdict=verdict, share=gain,
     )  # fmt: skip
 
 
@@ -683,11 +392,9 @@ def _gain_ok(before: np.ndarray, after: np.ndarray, n: int) -> np.ndarray:
     return (rel >= MIN_JOINT_GAIN) & (_rms(before, n) - _rms(after, n) >= MIN_JOINT_GAIN_NM)
 
 
-def _unselected_reports(ctx: _Context, ev: Evaluation, selected_names: set[str], rivals: list[Rivalry]) -> list[EffectReport]:
+def _unselected_reports(ctx: Scoring, ev: Evaluation, selected_names: set[str], rivals: list[Rivalry]) -> list[EffectReport]:
     """Every candidate not selected: what adding it (its best variant) to the selected set would do,
     or, for a rival the data cannot tell from a selected effect, that."""
-    from .selection import explain_unselected
-
     out = []
     n = ctx.pool.samples
     final_test = ctx.test_rms(ev.model)
@@ -699,74 +406,20 @@ def _unselected_reports(ctx: _Context, ev: Evaluation, selected_names: set[str],
         if rivalry is not None:
             why = rivalry.sentence(name) + f"; the selection keeps {rivalry.selected}"
         if trial is None:
-            out.append(EffectReport(name, variant, False, 0, why, {}, {}, (), 0.0, final_test, final_test, not_distinguishable_from=tie))
+            out.append(
+                EffectReport(
+                    name=name, variant=variant, selected=False, reason=why, test_rms_before=final_test, test_rms_after=final_test, not_distinguishable_from=tie
+                )
+            )
             continue
         gain = float(np.sum(ev.cv - trial.cv)) / n
         after = ctx.test_rms(trial.model)
-        out.append(EffectReport(name, variant, False, 0, why, {}, {}, (), gain, final_test, after, not_distinguishable_from=tie))
+        out.append(
+            EffectReport(
+                name=name, variant=variant, selected=False, reason=why, test_rms_before=final_test, test_rms_after=after, cv_gain=gain, not_distinguishable_from=tie
+            )
+        )
     return out
-
-
-#: Above this many selected physical effects, Shapley shares are estimated from random orders.
-EXACT_SHAPLEY_MAX = 8
-SHAPLEY_ORDERS = 64
-
-
-def _shapley(ctx: _Context, final: Model) -> dict[int, float]:
-    """Shapley share (N·m² per sample) of each selected term in the training residual's fall."""
-    terms = list(final.terms)
-    n = ctx.pool.samples
-    values: dict[frozenset[int], float] = {}
-
-    def value(subset: frozenset[int]) -> float:
-        if subset not in values:
-            model = Model.of([terms[i] for i in subset])
-            fit = ctx.fitter.fit(model)
-            sse = ctx.fitter.sse(ctx.fitter.columns(model), fit.x, ctx.pool.H, ctx.pool.b, ctx.pool.rr)
-            values[subset] = float(np.sum(ctx.pool.rr - sse)) / n
-        return values[subset]
-
-    k = len(terms)
-    share = {t.candidate: 0.0 for t in terms}
-    if k <= EXACT_SHAPLEY_MAX:
-        from itertools import combinations
-        from math import factorial
-
-        for i, t in enumerate(terms):
-            others = [o for o in range(k) if o != i]
-            for size in range(k):
-                w = factorial(size) * factorial(k - size - 1) / factorial(k)
-                for subset in combinations(others, size):
-                    base = frozenset(subset)
-                    share[t.candidate] += w * (value(base | {i}) - value(base))
-        return share
-    rng = np.random.default_rng(0)
-    for _ in range(SHAPLEY_ORDERS):
-        order = rng.permutation(k)
-        have: frozenset[int] = frozenset()
-        for i in order:
-            share[terms[i].candidate] += (value(have | {int(i)}) - value(have)) / SHAPLEY_ORDERS
-            have = have | {int(i)}
-    return share
-
-
-def _cumulative(ctx: _Context, final: Model, reports: list[EffectReport]) -> list[EffectReport]:
-    """Shapley shares, and test_rms_before/after of the selected effects added one by one: the q̈
-    filter first, then the physical effects by their share (each set refitted on the training data)."""
-    terms = {ctx.layout.candidates[t.candidate].name: t for t in final.terms}
-    shares = _shapley(ctx, final)
-    reports = [replace(r, share=shares[terms[r.name].candidate]) if r.selected and r.name in terms else r for r in reports]
-    chosen = sorted((r for r in reports if r.selected and r.name != "acceleration_noise"), key=lambda r: -r.share)
-    noise = next(r for r in reports if r.name == "acceleration_noise")
-    before = noise.test_rms_after  # the denoised rigid model
-    have: list[Term] = []
-    updated = {noise.name: noise}
-    for r in chosen:
-        have.append(terms[r.name])
-        after = ctx.test_rms(Model.of(have))
-        updated[r.name] = replace(r, test_rms_before=before, test_rms_after=after)
-        before = after
-    return [updated.get(r.name, r) if r.selected else r for r in reports]
 
 
 def _test_gap(arm: ArmModel, figures: Sequence[TestFigures]) -> tuple[GapSummary, GapSummary, dict[str, np.ndarray]]:

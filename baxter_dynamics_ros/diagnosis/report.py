@@ -18,7 +18,7 @@ import yaml
 from ..core.effect_specs import effects_to_dict
 from ..core.joints import JOINTS as N
 from ..core.output_files import staged_outputs
-from .procedure import STABLE_FRACTION, DiagnosisResult
+from .result import STABLE_FRACTION, DiagnosisResult
 
 __all__ = ["effects_yaml", "write_diagnosis"]
 

@@ -252,31 +252,32 @@ class _Search:
                 out |= set(t.joints) if other.kind == "joint" else set(range(N))
         return out
 
-    def try_add(self, current: Evaluation, index: int) -> tuple[str, Evaluation | None, str]:
-        """The add move of one candidate: (label, trial or None, why not if None)."""
+    def try_add(self, current: Evaluation, index: int) -> tuple[str | None, Evaluation | None, str]:
+        """The add move of one candidate: (label, trial, "") when it pays; (None, the trial or None
+        when none was fitted, why not) when it does not."""
         cand = self.layout.candidates[index]
         model = current.model
         names_in = {self.layout.candidates[t.candidate].name: t.candidate for t in model.terms}
         if cand.name in names_in and names_in[cand.name] != index:
-            return "", None, "another variant of it is selected"
+            return None, None, "another variant of it is selected"
         blocked = self.blocked_joints(model, index)
         have = model.term(index)
         if cand.kind != "joint":
             if have is not None:
-                return "", None, "selected"
+                return None, None, "selected"
             if blocked:
                 other = next(self.layout.candidates[t.candidate].label for t in model.terms if self.layout.candidates[t.candidate].name in _family(cand.name) and t.candidate != index)
-                return "", None, f"its alternative {other} is selected"
+                return None, None, f"its alternative {other} is selected"
             trial = self.evaluate(model.with_term(Term(index, self._touched(index))))
             term = trial.model.term(index)
             if not self.joint_gain_ok(current, trial).any():
-                return "", trial, f"improves no joint's held-out error by {MIN_JOINT_GAIN:.0%} and {MIN_JOINT_GAIN_NM:g} N·m RMS in most folds"
+                return None, trial, f"improves no joint's held-out error by {MIN_JOINT_GAIN:.0%} and {MIN_JOINT_GAIN_NM:g} N·m RMS in most folds"
             if not self.term_ok(trial, term):
-                return "", trial, "its fitted parameters are at their bounds or within their uncertainty of zero"
+                return None, trial, "its fitted parameters are at their bounds or within their uncertainty of zero"
             return f"add {cand.label}", trial, ""
         free = [j for j in range(N) if j not in blocked and (have is None or j not in have.joints)]
         if not free:
-            return "", None, "selected at every joint it may act on" if have else "an alternative acts at every joint"
+            return None, None, "selected at every joint it may act on" if have else "an alternative acts at every joint"
         existing = list(have.joints) if have else []
         wide = self.evaluate(model.with_term(Term(index, tuple(sorted(existing + free)))))
         term = wide.model.term(index)
@@ -298,14 +299,14 @@ class _Search:
                 why = f"at no joint does it remove {MIN_JOINT_GAIN:.0%} and {MIN_JOINT_GAIN_NM:g} N·m RMS of the held-out error, in most folds, and more than its penalty"
             else:
                 why = "where it would pay, its parameters are within their uncertainty of zero"
-            return "", wide, why
+            return None, wide, why
         trial = wide if keep == free else self.evaluate(model.with_term(Term(index, tuple(sorted(existing + keep)))))
         return f"add {cand.label} at {self._joint_names(keep)}", trial, ""
 
     def add_moves(self, current: Evaluation) -> Iterator[tuple[str, Evaluation]]:
         for index in range(len(self.layout.candidates)):
             label, trial, _ = self.try_add(current, index)
-            if label:
+            if label is not None:
                 yield label, trial
 
     def wald(self, ev: Evaluation, positions: np.ndarray) -> float:
@@ -467,7 +468,7 @@ def explain_unselected(
         if cand.name in selected:
             continue
         label, trial, why = search.try_add(final, index)
-        if label:
+        if label is not None:
             change = trial.score - final.score
             if search.preferred(final, trial):
                 why = (

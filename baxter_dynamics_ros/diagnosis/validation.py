@@ -39,7 +39,8 @@ from ..core.effect_specs import effects_from_dict
 from ..core.recording import Recording
 from ..simulation.plant import simulate
 from ..simulation.spec import SensorModel, SimulationSpec
-from .procedure import CANDIDATE_NAMES, DiagnosisResult, diagnose
+from .procedure import CANDIDATE_NAMES, diagnose
+from .result import DiagnosisResult
 
 __all__ = [
     "SCENARIOS",

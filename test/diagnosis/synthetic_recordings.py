@@ -16,7 +16,8 @@ from reference_models import pinocchio_from_arm
 
 from baxter_dynamics_ros.core.arm_model import ArmModel
 from baxter_dynamics_ros.core.recording import Recording
-from baxter_dynamics_ros.diagnosis.procedure import DiagnosisResult, diagnose
+from baxter_dynamics_ros.diagnosis.procedure import diagnose
+from baxter_dynamics_ros.diagnosis.result import DiagnosisResult
 from baxter_dynamics_ros.diagnosis.statistics import Block, active_columns, column_layout, prepare, recording_blocks
 from baxter_dynamics_ros.diagnosis.validation import validation_arm
 

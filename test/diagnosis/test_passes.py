@@ -11,7 +11,7 @@ from synthetic_recordings import friction_diagnosis, lowpassed_velocity, recordi
 
 from baxter_dynamics_ros.diagnosis.gap_analysis import angle_histogram, quantile_edges, values_in_bins, wanted_bins
 from baxter_dynamics_ros.diagnosis.passes import test_figures as pass_test_figures
-from baxter_dynamics_ros.diagnosis.procedure import DiagnosisResult
+from baxter_dynamics_ros.diagnosis.result import DiagnosisResult
 from baxter_dynamics_ros.diagnosis.sources import InMemory
 from baxter_dynamics_ros.diagnosis.statistics import CHUNK, column_layout
 from baxter_dynamics_ros.diagnosis.validation import validation_arm

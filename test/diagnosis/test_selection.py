@@ -16,7 +16,8 @@ from scipy.stats import chi2
 from synthetic_recordings import block_edges, blocks_of, friction_diagnosis, lowpassed_velocity, recording
 
 from baxter_dynamics_ros.diagnosis.fit import DECORRELATION_S, Fit, Model
-from baxter_dynamics_ros.diagnosis.procedure import DiagnosisResult, diagnose
+from baxter_dynamics_ros.diagnosis.procedure import diagnose
+from baxter_dynamics_ros.diagnosis.result import DiagnosisResult
 from baxter_dynamics_ros.diagnosis.selection import Evaluation, _Search, select
 from baxter_dynamics_ros.diagnosis.statistics import Pool, column_layout, prepare
 from baxter_dynamics_ros.diagnosis.validation import validation_arm
