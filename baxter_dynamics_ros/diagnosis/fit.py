@@ -78,11 +78,6 @@ AT_BOUND = 1e-9
 MAX_OFFSET_DRIFT_NM = 0.5
 
 
-#: Per-joint effects the s1 spring spans at s1: its preload is an offset, and its cosine and sine
-#: carry the shape of s1's gravity load, which a torque gain scales. With the spring in a model
-#: neither acts at s1 (on the other unit's recordings a gain at s1 took the spring's share over one
-#: range of s1 and missed a square's range by 2 N·m more).
-SPANNED_BY_SPRING = frozenset({"torque_offset", "torque_gain"})
 
 @dataclass(frozen=True, order=True)
 class Term:
@@ -165,12 +160,12 @@ class Fitter:
     # -- columns
     def term_columns(self, model: Model) -> list[np.ndarray]:
         """Each term's columns in the model (a spring takes the place of s1's offset and gain)."""
-        spring = any(self.layout.candidates[t.candidate].name == "s1_spring" for t in model.terms)
+        spring = self.layout.has_spring(model)
         out = []
         for t in model.terms:
             cand = self.layout.candidates[t.candidate]
             if cand.kind == "joint":
-                joints = [j for j in t.joints if not (spring and cand.name in SPANNED_BY_SPRING and j == S1)]
+                joints = [j for j in t.joints if not (spring and cand.spanned_by_spring and j == S1)]
                 out.append(cand.joint_columns(joints))
             else:
                 out.append(np.asarray(cand.columns, dtype=int))
@@ -220,7 +215,7 @@ class Fitter:
         full = None if fold is None else self._cache.get((model, -1))
         start = full.z if full is not None else None
         offset = next((t for t in model.terms if self.layout.candidates[t.candidate].name == "torque_offset"), None)
-        joints = [] if offset is None else [j for j in offset.joints if not self._masked(model, j)]
+        joints = [] if offset is None else [j for j in offset.joints if not (j == S1 and self.layout.has_spring(model))]
         if joints:
             result = self._fit_with_offsets(model, offset, joints, fold, start)
         else:
@@ -234,10 +229,6 @@ class Fitter:
         H, b = (self.pool.H, self.pool.b) if fold is None else self.pool.without_group(fold)[:2]
         rr = self.pool.rr if fold is None else self.pool.rr - self.pool.group_rr[fold]
         return H, b, float(self.weights @ rr)
-
-    def _masked(self, model: Model, joint: int) -> bool:
-        """s1's offset gives way to the spring's preload."""
-        return joint == S1 and any(self.layout.candidates[t.candidate].name == "s1_spring" for t in model.terms)
 
     def prior_precision(self, model: Model) -> np.ndarray:
         """(c,) λ / σ² of the linear columns' zero-mean Gaussian priors (0 where a column has none)."""

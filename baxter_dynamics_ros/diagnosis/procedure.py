@@ -63,7 +63,7 @@ from .gap_analysis import GapSummary, gap_summary, quantile_edges, wanted_bins
 from .inertial_report import inertial_params, inertial_quantities
 from .passes import Reduction, Screening, TestFigures, reduce, screen, test_figures
 from .result import DiagnosisResult, EffectReport, hidden_torque, joint_list, test_verdict
-from .selection import FAMILY_OF, MIN_JOINT_GAIN, MIN_JOINT_GAIN_NM, Evaluation, Rivalry, explain_unselected, rivalries, select
+from .selection import MIN_JOINT_GAIN, MIN_JOINT_GAIN_NM, Evaluation, Rivalry, explain_unselected, rivalries, select
 from .sources import InMemory, Mapper, Source, serial_map
 from .statistics import Block, Candidate, ColumnLayout, Pool, active_columns, choose_cutoff, column_layout
 
@@ -295,7 +295,7 @@ def _selected_reports(ctx: Scoring, ev: Evaluation, fold_models: list[Model], ri
             joint_folds = {ctx.arm.joint_names[j]: sum(t is not None and j in t.joints for t in same_effect) for j in term.joints}
         alternatives = {
             other: sum(any(ctx.layout.candidates[t.candidate].name == other for t in fm.terms) for fm in fold_models)
-            for other in sorted(FAMILY_OF.get(cand.name, ()))
+            for other in sorted(cand.alternatives)
         }
         alternatives = {k: v for k, v in alternatives.items() if v}
         drift = _offset_drift(ctx, final, ev.fit, term) if cand.name == "torque_offset" else None

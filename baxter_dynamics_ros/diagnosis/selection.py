@@ -44,10 +44,10 @@ from scipy.stats import chi2
 from ..core.arm_model import ArmModel
 from ..core.joints import JOINTS as N
 from ..core.joints import S1
-from .fit import DECORRELATION_S, SPANNED_BY_SPRING, Fit, Fitter, Model, Term
+from .fit import DECORRELATION_S, Fit, Fitter, Model, Term
 from .statistics import ColumnLayout, Pool
 
-__all__ = ["FAMILY_OF", "Evaluation", "Rivalry", "Selection", "explain_unselected", "rivalries", "select"]
+__all__ = ["Evaluation", "Rivalry", "Selection", "explain_unselected", "rivalries", "select"]
 
 #: A kept term must cut some joint's held-out squared error by this fraction and its held-out RMS
 #: by MIN_JOINT_GAIN_NM (the effort's quantisation is 0.004 N·m).
@@ -57,10 +57,6 @@ MIN_JOINT_GAIN_NM = 0.01
 SIGNIFICANCE = 0.95
 #: Floor of a joint's σ², N·m² (the weights stay finite on a joint the model explains exactly).
 SIGMA2_FLOOR = 1e-6
-#: Families of effects that are alternatives of each other (at most one per joint).
-FAMILIES = ({"payload", "inertial_error"}, {"coulomb_friction", "stribeck_friction"})
-#: Each family member's alternatives.
-FAMILY_OF = {name: family - {name} for family in FAMILIES for name in family}
 #: Effects that can explain the same torque on some data, and the motion that tells them apart.
 RIVALS: dict[frozenset[str], str] = {
     frozenset({"payload", "inertial_error"}): "motion that loads the inner links in other ways than the hand does (each joint over its range, with accelerations)",
@@ -121,10 +117,6 @@ class Rivalry:
         )
 
 
-def _family(name: str) -> set[str]:
-    return FAMILY_OF.get(name, set()) | {name}
-
-
 class _Search:
     def __init__(self, arm: ArmModel, layout: ColumnLayout, pool: Pool) -> None:
         self.arm, self.layout, self.pool = arm, layout, pool
@@ -137,12 +129,10 @@ class _Search:
     # -- evaluation
     def canonical(self, model: Model) -> Model:
         """With the s1 spring in a model, s1 has no offset or gain of its own (the spring spans them)."""
-        names = {self.layout.candidates[t.candidate].name: t for t in model.terms}
-        if "s1_spring" not in names:
+        if not self.layout.has_spring(model):
             return model
-        for name in SPANNED_BY_SPRING:
-            t = names.get(name)
-            if t is not None and S1 in t.joints:
+        for t in model.terms:
+            if self.layout.candidates[t.candidate].spanned_by_spring and S1 in t.joints:
                 model = model.with_term(Term(t.candidate, tuple(j for j in t.joints if j != S1)))
         return model
 
@@ -244,11 +234,11 @@ class _Search:
         """Joints where another member of the candidate's family (or another variant) already acts."""
         cand = self.layout.candidates[candidate]
         out: set[int] = set()
-        if cand.name in SPANNED_BY_SPRING and any(self.layout.candidates[t.candidate].name == "s1_spring" for t in model.terms):
+        if cand.spanned_by_spring and self.layout.has_spring(model):
             out.add(S1)
         for t in model.terms:
             other = self.layout.candidates[t.candidate]
-            if t.candidate != candidate and other.name in _family(cand.name):
+            if t.candidate != candidate and (other.name == cand.name or other.name in cand.alternatives):
                 out |= set(t.joints) if other.kind == "joint" else set(range(N))
         return out
 
@@ -266,7 +256,7 @@ class _Search:
             if have is not None:
                 return None, None, "selected"
             if blocked:
-                other = next(self.layout.candidates[t.candidate].label for t in model.terms if self.layout.candidates[t.candidate].name in _family(cand.name) and t.candidate != index)
+                other = next(self.layout.candidates[t.candidate].label for t in model.terms if self.layout.candidates[t.candidate].name in cand.alternatives)
                 return None, None, f"its alternative {other} is selected"
             trial = self.evaluate(model.with_term(Term(index, self._touched(index))))
             term = trial.model.term(index)
@@ -353,9 +343,9 @@ class _Search:
         it cannot act."""
         cand, other = self.layout.candidates[term.candidate], self.layout.candidates[index]
         offset = next((t for t in model.terms if self.layout.candidates[t.candidate].name == "torque_offset"), None)
-        if other.name == "s1_spring":  # the offset at s1 gives way to the spring's preload
+        if other.is_spring:  # the offset at s1 gives way to the spring's preload
             return model.with_term(Term(index, self._touched(index))) if cand.name == "torque_offset" and S1 in term.joints else None
-        if cand.name == "s1_spring":  # the spring gives way to an offset at s1
+        if cand.is_spring:  # the spring gives way to an offset at s1
             joints = tuple(sorted(set(offset.joints if offset else ()) | {S1}))
             return model.without(term.candidate).with_term(Term(index, joints))
         if other.kind == "joint":

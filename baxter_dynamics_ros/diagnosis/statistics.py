@@ -19,7 +19,7 @@ error of any fit x on any block is then exact: r·r − 2 x·b + xᵀ H x.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -41,6 +41,8 @@ from ..core.joints import JOINTS as N
 from ..core.recording import Recording
 
 __all__ = [
+    "FAMILIES",
+    "SPANNED_BY_SPRING",
     "Block",
     "Candidate",
     "ColumnLayout",
@@ -64,6 +66,13 @@ CUTOFF_GRID_HZ = (1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0)
 SPRING_PRIOR_STD_NM = 50.0
 #: The effects whose argument is the low-passed q̇ (:class:`Prepared`).
 _FRICTION = (ViscousFriction, CoulombFriction, StribeckFriction)
+#: Families of effects that are alternatives of each other (at most one per joint).
+FAMILIES = (frozenset({"payload", "inertial_error"}), frozenset({"coulomb_friction", "stribeck_friction"}))
+#: Per-joint effects the s1 spring spans at s1: its preload is an offset, and its cosine and sine
+#: carry the shape of s1's gravity load, which a torque gain scales. With the spring in a model
+#: neither acts at s1 (on the other unit's recordings a gain at s1 took the spring's share over one
+#: range of s1 and missed a square's range by 2 N·m more).
+SPANNED_BY_SPRING = frozenset({"torque_offset", "torque_gain"})
 #: Regressor rows evaluated at once (bounds the memory of the statistics pass).
 CHUNK = 8192
 
@@ -77,7 +86,9 @@ class Candidate:
     spring); "inertial" — inertial parameters of whole links, fitted through the log-Cholesky
     parametrisation (:mod:`baxter_dynamics_ros.core.log_cholesky`), ``links`` the link indices.
     lower: (p,) lower bounds of the linear kinds' parameters; prior_std: (p,) standard deviations of
-    the zero-mean Gaussian priors of a "linear" kind's parameters (inf: none).
+    the zero-mean Gaussian priors of a "linear" kind's parameters (inf: none). alternatives: the
+    effects it is an alternative of (:data:`FAMILIES`: at most one of them per joint);
+    spanned_by_spring: with the s1 spring in a model it does not act at s1 (:data:`SPANNED_BY_SPRING`).
     """
 
     name: str
@@ -89,6 +100,12 @@ class Candidate:
     p_joint: int = 0
     links: tuple[int, ...] = ()
     prior_std: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    alternatives: frozenset[str] = frozenset()
+    spanned_by_spring: bool = False
+
+    @property
+    def is_spring(self) -> bool:
+        return isinstance(self.template, S1Spring)
 
     @property
     def label(self) -> str:
@@ -107,6 +124,10 @@ class ColumnLayout:
     n_columns: int
     #: The distinct column blocks: (template, first column, width); payload has none of its own.
     blocks: tuple[tuple[Effect, int, int], ...]
+
+    def has_spring(self, model) -> bool:
+        """Whether the s1 spring is among a model's terms (:class:`~.fit.Model`)."""
+        return any(self.candidates[t.candidate].is_spring for t in model.terms)
 
 
 def column_layout() -> ColumnLayout:
@@ -144,7 +165,11 @@ def column_layout() -> ColumnLayout:
     payload = Candidate("payload", "", "inertial", Payload(mass_kg=1.0), np.arange(inertial_start + 60, inertial_start + 70), np.full(10, free), links=(N - 1,))
     index = [c.name for c in candidates].index("inertial_error")
     candidates.insert(index, payload)
-    return ColumnLayout(tuple(candidates), start, tuple(blocks))
+    related = [
+        replace(c, alternatives=frozenset().union(*(f - {c.name} for f in FAMILIES if c.name in f)), spanned_by_spring=c.name in SPANNED_BY_SPRING)
+        for c in candidates
+    ]
+    return ColumnLayout(tuple(related), start, tuple(blocks))
 
 
 # ----------------------------------------------------------------------------- one recording

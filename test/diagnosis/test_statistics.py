@@ -106,3 +106,21 @@ def test_friction_columns_take_the_lowpassed_velocity() -> None:
     np.testing.assert_allclose(estimate, one_column(lowpassed_velocity(rec, CUTOFF_HZ)), rtol=1e-6)
     np.testing.assert_allclose(estimate, coulomb, rtol=0.01)
     assert np.all(one_column(noisy) < 0.96 * coulomb)
+
+
+def test_candidates_know_their_alternatives_and_what_the_spring_spans() -> None:
+    """Each candidate carries its relations: payload ⇄ inertial_error and Coulomb ⇄ Stribeck (every
+    variant) are alternatives, nothing else is; the offset and the gain alone give way to the spring
+    at s1; the spring alone is the spring, and a layout knows whether a model holds it."""
+    from baxter_dynamics_ros.diagnosis.fit import Model, Term
+
+    layout = column_layout()
+    pairs = {"payload": {"inertial_error"}, "inertial_error": {"payload"}, "coulomb_friction": {"stribeck_friction"}, "stribeck_friction": {"coulomb_friction"}}
+    for c in layout.candidates:
+        assert c.alternatives == frozenset(pairs.get(c.name, ())), c.label
+        assert c.spanned_by_spring == (c.name in ("torque_offset", "torque_gain")), c.label
+        assert c.is_spring == (c.name == "s1_spring"), c.label
+    spring = next(i for i, c in enumerate(layout.candidates) if c.name == "s1_spring")
+    offset = next(i for i, c in enumerate(layout.candidates) if c.name == "torque_offset")
+    assert layout.has_spring(Model.of([Term(offset, (0,)), Term(spring, (1,))]))
+    assert not layout.has_spring(Model.of([Term(offset, (0, 1))]))
