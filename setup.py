@@ -7,9 +7,13 @@ PyPI wheels (``ros-jazzy-*`` names; the unprefixed ``ros-*`` ones belong to anot
 sit in the ``pypi`` extra: ``pip install -e .[pypi,test]`` installs everything.
 """
 
+import importlib.util
 from glob import glob
+from pathlib import Path
 
 from setuptools import find_packages, setup
+from setuptools.command.develop import develop
+from setuptools.command.install import install
 
 package_name = "baxter_dynamics_ros"
 
@@ -58,8 +62,47 @@ interface_build_wheels = [
     "ros-jazzy-rosidl-typesupport-introspection-cpp",
 ]
 
+
+
+def install_interfaces(prefix: str, build_base: str) -> None:
+    """baxter_dynamics_interfaces built and installed into ``prefix`` beside this package
+    (``baxter_dynamics_interfaces/install_into.py``): colcon does not look for packages inside this
+    one's folder, so its install step builds them. Without the tools, one warning and nothing else."""
+    here = Path(__file__).resolve().parent
+    spec = importlib.util.spec_from_file_location("install_into", here / "baxter_dynamics_interfaces" / "install_into.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    build = Path(build_base) / "baxter_dynamics_interfaces"
+    why = module.install_into(prefix, build, str(build) + ".log")
+    if why is not None:
+        print(f"WARNING: baxter_dynamics_interfaces not built: {why}; the node serves no dynamics services", flush=True)
+
+
+class InstallWithInterfaces(install):
+    """``setup.py install``, what ``colcon build`` runs for an ament_python package, with the
+    interfaces. pip's wheels install into a staging root instead and never carry them; a venv gets
+    them from ``./dev``."""
+
+    def run(self) -> None:
+        super().run()
+        if self.root is None:
+            install_interfaces(self.install_data, self.get_finalized_command("build").build_base)
+
+
+class DevelopWithInterfaces(develop):
+    """``setup.py develop``, what ``colcon build --symlink-install`` runs, with the interfaces
+    installed into the prefix of the site-packages it links this package from."""
+
+    def run(self) -> None:
+        super().run()
+        if not self.uninstall:
+            prefix = Path(self.install_dir).resolve().parents[2]  # <prefix>/lib/pythonX.Y/site-packages
+            install_interfaces(str(prefix), self.build_directory or str(prefix / "build"))
+
+
 setup(
     name=package_name,
+    cmdclass={"install": InstallWithInterfaces, "develop": DevelopWithInterfaces},
     version="0.1.0",
     packages=find_packages(exclude=["test", "test.*", "bench", "bench.*"]),
     data_files=[

@@ -6,6 +6,7 @@ from __future__ import annotations
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
@@ -41,8 +42,8 @@ def test_package_xml_is_format_3_with_runtime_dependencies() -> None:
     assert (REPO / "resource" / PACKAGE).is_file()
 
 
-@pytest.fixture(scope="module")
-def colcon_install(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def colcon_build(tmp_path_factory: pytest.TempPathFactory, *options: str) -> Path:
+    """colcon's usual build of a workspace holding a copy of this repository; its install prefix."""
     colcon = shutil.which("colcon", path=str(Path(sys.executable).parent))
     if colcon is None:
         pytest.skip("colcon is not installed in this environment (pip install colcon-common-extensions)")
@@ -55,10 +56,15 @@ def colcon_install(tmp_path_factory: pytest.TempPathFactory) -> Path:
         ignore=shutil.ignore_patterns(".venv", ".git", "__pycache__", "*.egg-info", ".pytest_cache", ".hypothesis", "out"),
     )
     result = subprocess.run(
-        [colcon, "build", "--base-paths", "src"], cwd=ws, capture_output=True, text=True, timeout=600
+        [colcon, "build", *options], cwd=ws, capture_output=True, text=True, timeout=600
     )
     assert result.returncode == 0, result.stdout + result.stderr
     return ws / "install" / PACKAGE
+
+
+@pytest.fixture(scope="module")
+def colcon_install(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return colcon_build(tmp_path_factory)
 
 
 def test_colcon_installs_scripts_config_and_index_marker(colcon_install: Path) -> None:
@@ -87,6 +93,94 @@ def test_installed_package_loads_models_from_its_share_folder(colcon_install: Pa
     script = colcon_install / "lib" / PACKAGE / "baxter-dynamics"
     shown = subprocess.run([sys.executable, str(script), "--help"], cwd=tmp_path, env=env, capture_output=True, text=True)
     assert shown.returncode == 0 and "diagnose" in shown.stdout, shown.stderr
+
+
+#: The services' client, run with the colcon install's environment (its setup.bash sourced): it waits
+#: for the installed node's gravity service, asks G at q = 0 of the right arm and prints where the
+#: interface module came from, the node's service types and the answer.
+INSTALLED_CLIENT = """
+import sys, time
+import rclpy
+import baxter_dynamics_interfaces
+from baxter_dynamics_interfaces.srv import Gravity
+rclpy.init()
+node = rclpy.create_node("installed_probe")
+client = node.create_client(Gravity, "/installed/baxter_dynamics/compute_gravity")
+if not client.wait_for_service(timeout_sec=60.0):
+    sys.exit("compute_gravity not served within 60 s")
+names = ["right_s0", "right_s1", "right_e0", "right_e1", "right_w0", "right_w1", "right_w2"]
+future = client.call_async(Gravity.Request(name=names, position=[0.0] * 7))
+rclpy.spin_until_future_complete(node, future, timeout_sec=30.0)
+types = sorted(t for n, ts in node.get_service_names_and_types_by_node("baxter_dynamics", "/installed") for t in ts if "compute_" in n)
+print(baxter_dynamics_interfaces.__file__)
+print(",".join(sorted(set(types))))
+print(future.result().success, ",".join(f"{v:.9f}" for v in future.result().effort))
+node.destroy_node()
+rclpy.shutdown()
+"""
+
+
+def test_colcon_installs_the_interface_package_and_the_installed_node_serves_it(colcon_install: Path, ros_domain: int, tmp_path: Path) -> None:
+    """colcon's usual ``colcon build`` installs baxter_dynamics_interfaces beside the node (its install
+    step builds it: colcon does not look inside this package's folder): the ament index lists the five
+    services, and with only the install's setup.bash sourced the installed node serves them and a
+    client in another process gets G(0) of the right arm, equal to Pinocchio's on the URDF model."""
+    if any(shutil.which(tool) is None for tool in ("cmake", "c++", "cc")):
+        pytest.skip("no cmake or C/C++ compiler: the interface package is not built (the node then serves no dynamics services)")
+    index = colcon_install / "share" / "ament_index" / "resource_index" / "rosidl_interfaces" / "baxter_dynamics_interfaces"
+    listed = sorted(line for line in index.read_text().splitlines() if line.endswith(".srv"))
+    assert listed == [f"srv/{n}.srv" for n in ("FlangeKinematics", "ForwardDynamics", "Gravity", "InverseDynamics", "MassMatrix")]
+    setup = colcon_install.parent / "setup.bash"
+    # The underlay (the venv's ROS wheels, as /opt/ros/jazzy would be) stays; the package comes from the install.
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+
+    def sourced(command: str) -> list[str]:
+        return ["bash", "-c", f"source {setup} && exec {command}"]
+
+    log = tmp_path / "node.log"
+    with log.open("w") as out:
+        node = subprocess.Popen(
+            sourced(f"{sys.executable} {colcon_install / 'lib' / PACKAGE / 'baxter_dynamics_node'} --ros-args -r __ns:=/installed"),
+            cwd=tmp_path, env=env, stdout=out, stderr=subprocess.STDOUT,
+        )  # fmt: skip
+    try:
+        answer = subprocess.run(sourced(f"{sys.executable} -c '{INSTALLED_CLIENT}'"), cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
+        assert answer.returncode == 0, answer.stdout + answer.stderr + log.read_text()
+        module_file, types, result = answer.stdout.strip().splitlines()[-3:]
+    finally:
+        node.send_signal(signal.SIGINT)
+        node.wait(timeout=15)
+    assert module_file.startswith(str(colcon_install)), module_file
+    assert types == ",".join(f"baxter_dynamics_interfaces/srv/{n}" for n in ("FlangeKinematics", "ForwardDynamics", "Gravity", "InverseDynamics", "MassMatrix"))
+    success, effort = result.split()
+    assert success == "True"
+    from reference_models import pinocchio_from_arm
+
+    from baxter_dynamics_ros import load_arm_model
+
+    expected = pinocchio_from_arm(load_arm_model("right")).rnea(np.zeros(7), np.zeros(7), np.zeros(7))
+    np.testing.assert_allclose([float(v) for v in effort.split(",")], expected, rtol=1e-9, atol=1e-9)
+
+
+def test_colcon_symlink_install_installs_the_interface_package_too(tmp_path_factory: pytest.TempPathFactory, tmp_path: Path) -> None:
+    """``colcon build --symlink-install`` (setup.py develop) installs the interface package into the
+    install prefix as well: sourced, Python imports it from there and its type support round-trips a request."""
+    if any(shutil.which(tool) is None for tool in ("cmake", "c++", "cc")):
+        pytest.skip("no cmake or C/C++ compiler: the interface package is not built")
+    install = colcon_build(tmp_path_factory, "--symlink-install")
+    assert (install / "share" / "ament_index" / "resource_index" / "rosidl_interfaces" / "baxter_dynamics_interfaces").is_file()
+    code = (
+        "import baxter_dynamics_interfaces; from baxter_dynamics_interfaces.srv import Gravity;"
+        "from rclpy.serialization import deserialize_message, serialize_message;"
+        "r = deserialize_message(serialize_message(Gravity.Request(name=['right_s0'], position=[0.5])), Gravity.Request);"
+        "print(baxter_dynamics_interfaces.__file__); print(list(r.name), list(r.position))"
+    )
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    out = subprocess.run(["bash", "-c", f'source {install.parent / "setup.bash"} && exec {sys.executable} -c "{code}"'], cwd=tmp_path, env=env, capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    module_file, round_trip = out.stdout.strip().splitlines()[-2:]
+    assert module_file.startswith(str(install)), module_file
+    assert round_trip == "['right_s0'] [0.5]"
 
 
 def console_scripts() -> set[str]:
