@@ -24,7 +24,7 @@ from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.core.effect_specs import effects_from_dict, load_effects
 from baxter_dynamics_ros.core.effects import CoulombFriction, Delay, InertialError, Payload, StribeckFriction, ViscousFriction
 from baxter_dynamics_ros.core.recording import Recording
-from baxter_dynamics_ros.diagnosis.fit import COM_BOX_M, MASS_RANGE, PAYLOAD_COM_BOX_M, PAYLOAD_MASS_KG
+from baxter_dynamics_ros.diagnosis.inertial_fit import COM_BOX_M, MASS_RANGE, PAYLOAD_COM_BOX_M, PAYLOAD_MASS_KG
 from baxter_dynamics_ros.diagnosis.procedure import CANDIDATE_NAMES, diagnose
 from baxter_dynamics_ros.diagnosis.report import effects_yaml
 from baxter_dynamics_ros.diagnosis.validation import (
