@@ -8,12 +8,17 @@ sit in the ``pypi`` extra: ``pip install -e .[pypi,test]`` installs everything.
 """
 
 import importlib.util
+import sys
 from glob import glob
 from pathlib import Path
 
 from setuptools import find_packages, setup
-from setuptools.command.develop import develop
 from setuptools.command.install import install
+
+try:  # setuptools' develop command is deprecated (from 80 a wrapper of pip install -e) and may go
+    from setuptools.command.develop import develop
+except ImportError:  # pragma: no cover - a setuptools without it: colcon --symlink-install cannot use it either
+    develop = None
 
 package_name = "baxter_dynamics_ros"
 
@@ -63,7 +68,6 @@ interface_build_wheels = [
 ]
 
 
-
 def install_interfaces(prefix: str, build_base: str) -> None:
     """baxter_dynamics_interfaces built and installed into ``prefix`` beside this package
     (``baxter_dynamics_interfaces/install_into.py``): colcon does not look for packages inside this
@@ -75,34 +79,40 @@ def install_interfaces(prefix: str, build_base: str) -> None:
     build = Path(build_base) / "baxter_dynamics_interfaces"
     why = module.install_into(prefix, build, str(build) + ".log")
     if why is not None:
-        print(f"WARNING: baxter_dynamics_interfaces not built: {why}; the node serves no dynamics services", flush=True)
+        print(f"WARNING: baxter_dynamics_interfaces not built: {why}; the node serves no dynamics services", file=sys.stderr, flush=True)
 
 
 class InstallWithInterfaces(install):
     """``setup.py install``, what ``colcon build`` runs for an ament_python package, with the
-    interfaces. pip's wheels install into a staging root instead and never carry them; a venv gets
-    them from ``./dev``."""
+    interfaces. An install into a staging root (pip's wheels, a Debian package's rules) does not
+    carry them: a venv gets them from ``./dev``, a binary package would build them as their own."""
 
     def run(self) -> None:
         super().run()
         if self.root is None:
             install_interfaces(self.install_data, self.get_finalized_command("build").build_base)
+        else:
+            print("NOTE: baxter_dynamics_interfaces is not installed into a staging root; build it on its own", file=sys.stderr, flush=True)
 
 
-class DevelopWithInterfaces(develop):
-    """``setup.py develop``, what ``colcon build --symlink-install`` runs, with the interfaces
-    installed into the prefix of the site-packages it links this package from."""
+commands = {"install": InstallWithInterfaces}
+if develop is not None:
 
-    def run(self) -> None:
-        super().run()
-        if not self.uninstall:
-            prefix = Path(self.install_dir).resolve().parents[2]  # <prefix>/lib/pythonX.Y/site-packages
-            install_interfaces(str(prefix), self.build_directory or str(prefix / "build"))
+    class DevelopWithInterfaces(develop):
+        """``setup.py develop``, what ``colcon build --symlink-install`` runs, with the interfaces
+        installed into the prefix it installs into (colcon sets ``sys.prefix`` to its install base)."""
+
+        def run(self) -> None:
+            super().run()
+            if not getattr(self, "uninstall", False):
+                install_interfaces(sys.prefix, self.get_finalized_command("build").build_base)
+
+    commands["develop"] = DevelopWithInterfaces
 
 
 setup(
     name=package_name,
-    cmdclass={"install": InstallWithInterfaces, "develop": DevelopWithInterfaces},
+    cmdclass=commands,
     version="0.1.0",
     packages=find_packages(exclude=["test", "test.*", "bench", "bench.*"]),
     data_files=[

@@ -33,13 +33,13 @@ def install_into(prefix: str | os.PathLike[str], build_dir: str | os.PathLike[st
     if missing:
         return f"no {', '.join(missing)} on PATH"
     search = [str(prefix), *filter(None, os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep))]
-    build = Path(build_dir)
-    shutil.rmtree(build, ignore_errors=True)
-    build.mkdir(parents=True)
+    build = Path(build_dir)  # kept between calls: cmake rebuilds only what changed
+    build.mkdir(parents=True, exist_ok=True)
+    jobs = os.environ.get("CMAKE_BUILD_PARALLEL_LEVEL") or str(os.cpu_count() or 1)
     steps = [
         ["cmake", "-S", str(SOURCE), "-B", str(build), f"-DCMAKE_PREFIX_PATH={';'.join(search)}", f"-DCMAKE_INSTALL_PREFIX={prefix}",
          f"-DPython3_EXECUTABLE={sys.executable}", "-DBUILD_TESTING=OFF"],
-        ["cmake", "--build", str(build), f"-j{os.cpu_count() or 1}"],
+        ["cmake", "--build", str(build), f"-j{jobs}"],
         ["cmake", "--install", str(build)],
     ]  # fmt: skip
     with open(log, "w", encoding="utf-8") as out:

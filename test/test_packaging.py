@@ -62,6 +62,11 @@ def colcon_build(tmp_path_factory: pytest.TempPathFactory, *options: str) -> Pat
     return ws / "install" / PACKAGE
 
 
+def sourced(setup: Path, *command: str) -> list[str]:
+    """``command`` run by bash after sourcing a colcon workspace's ``setup``, nothing quoted by hand."""
+    return ["bash", "-c", 'source "$0" && exec "$@"', str(setup), *command]
+
+
 @pytest.fixture(scope="module")
 def colcon_install(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return colcon_build(tmp_path_factory)
@@ -134,22 +139,23 @@ def test_colcon_installs_the_interface_package_and_the_installed_node_serves_it(
     # The underlay (the venv's ROS wheels, as /opt/ros/jazzy would be) stays; the package comes from the install.
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
 
-    def sourced(command: str) -> list[str]:
-        return ["bash", "-c", f"source {setup} && exec {command}"]
-
     log = tmp_path / "node.log"
     with log.open("w") as out:
         node = subprocess.Popen(
-            sourced(f"{sys.executable} {colcon_install / 'lib' / PACKAGE / 'baxter_dynamics_node'} --ros-args -r __ns:=/installed"),
+            sourced(setup, sys.executable, str(colcon_install / "lib" / PACKAGE / "baxter_dynamics_node"), "--ros-args", "-r", "__ns:=/installed"),
             cwd=tmp_path, env=env, stdout=out, stderr=subprocess.STDOUT,
         )  # fmt: skip
     try:
-        answer = subprocess.run(sourced(f"{sys.executable} -c '{INSTALLED_CLIENT}'"), cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
+        answer = subprocess.run(sourced(setup, sys.executable, "-c", INSTALLED_CLIENT), cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
         assert answer.returncode == 0, answer.stdout + answer.stderr + log.read_text()
         module_file, types, result = answer.stdout.strip().splitlines()[-3:]
     finally:
         node.send_signal(signal.SIGINT)
-        node.wait(timeout=15)
+        try:
+            node.wait(timeout=15)
+        except subprocess.TimeoutExpired:
+            node.kill()
+            node.wait()
     assert module_file.startswith(str(colcon_install)), module_file
     assert types == ",".join(f"baxter_dynamics_interfaces/srv/{n}" for n in ("FlangeKinematics", "ForwardDynamics", "Gravity", "InverseDynamics", "MassMatrix"))
     success, effort = result.split()
@@ -175,8 +181,10 @@ def test_colcon_symlink_install_installs_the_interface_package_too(tmp_path_fact
         "r = deserialize_message(serialize_message(Gravity.Request(name=['right_s0'], position=[0.5])), Gravity.Request);"
         "print(baxter_dynamics_interfaces.__file__); print(list(r.name), list(r.position))"
     )
+    site = next((install / "lib").glob("python3*/site-packages"))
+    assert (site / "baxter-dynamics-ros.egg-link").is_file(), "colcon did not run setup.py develop"
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    out = subprocess.run(["bash", "-c", f'source {install.parent / "setup.bash"} && exec {sys.executable} -c "{code}"'], cwd=tmp_path, env=env, capture_output=True, text=True)
+    out = subprocess.run(sourced(install.parent / "setup.bash", sys.executable, "-c", code), cwd=tmp_path, env=env, capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
     module_file, round_trip = out.stdout.strip().splitlines()[-2:]
     assert module_file.startswith(str(install)), module_file

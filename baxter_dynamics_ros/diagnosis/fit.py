@@ -48,7 +48,6 @@ DECORRELATION_S = 0.1
 MAX_OFFSET_DRIFT_NM = 0.5
 
 
-
 @dataclass(frozen=True, order=True)
 class Term:
     """A candidate (index into the layout) and the joints it acts on (per-joint kinds; else all it touches)."""

@@ -7,9 +7,9 @@ values; the payload's in ``PAYLOAD_MASS_KG`` and ``PAYLOAD_COM_BOX_M`` at the fl
 prior on φ about the paper's values (:class:`LinkSetup`) pulls the directions the data do not see
 back to them. :func:`fit_inertial` solves the problem, with any linear terms of the same model, by a
 bounded damped Newton iteration with Levenberg-Marquardt damping (:func:`box_newton`, exact
-derivatives). The data term is written as ‖R x − R⁻ᵀ b‖² with RᵀR the Cholesky factorisation of the
-weighted H, so the residual vector has only as many rows as the model has columns, whatever the
-length of the recordings. Why not an SDP (cvxpy, as FloBaRoID): the log-Cholesky form needs no extra
+derivatives). The data term is the quadratic form of the weighted statistics in unit-norm columns,
+yᵀ Hs y − 2 bsᵀ y (Hs = D⁻¹ H D⁻¹, y = x ⊙ diag(H)^½), so a cost evaluation costs as much as the
+model has columns, whatever the length of the recordings. Why not an SDP (cvxpy, as FloBaRoID): the log-Cholesky form needs no extra
 solver, handles the bounds and a prior in one smooth problem, and a warm-started fit of a
 cross-validation fold takes a few milliseconds. :mod:`.fit` calls it and keeps the models' layout.
 """

@@ -12,7 +12,8 @@ Method:
 2. **Candidates and statistics.** Every other effect is linear in its parameters (or, for the
    inertial ones, in the inertial parameters of whole links); each training recording is reduced to
    sufficient statistics per contiguous block (:mod:`~baxter_dynamics_ros.diagnosis.statistics`).
-3. **Physically consistent fits** (:mod:`~baxter_dynamics_ros.diagnosis.fit`): payloads and link
+3. **Physically consistent fits** (:mod:`~baxter_dynamics_ros.diagnosis.fit`,
+   :mod:`~baxter_dynamics_ros.diagnosis.inertial_fit`): payloads and link
    changes are fitted inside the physical set (log-Cholesky pseudo-inertias, bounded masses and
    centres of mass, a prior towards the paper's values), never fitted freely and then judged.
 4. **Selection that does not depend on its order** (:mod:`~baxter_dynamics_ros.diagnosis.selection`):
@@ -62,7 +63,7 @@ from .fit import MAX_OFFSET_DRIFT_NM, Fit, Model, Term
 from .gap_analysis import GapSummary, gap_summary, quantile_edges, wanted_bins
 from .inertial_report import inertial_params, inertial_quantities
 from .passes import Reduction, Screening, TestFigures, reduce, screen, test_figures
-from .result import DiagnosisResult, EffectReport, hidden_torque, joint_list, test_verdict
+from .result import DiagnosisResult, EffectReport, hidden_torque, joint_list, verdict_of
 from .selection import MIN_JOINT_GAIN, MIN_JOINT_GAIN_NM, Evaluation, Rivalry, explain_unselected, rivalries, select
 from .sources import InMemory, Mapper, Source, serial_map
 from .statistics import Block, Candidate, ColumnLayout, Pool, active_columns, choose_cutoff, column_layout
@@ -287,7 +288,7 @@ def _selected_reports(ctx: Scoring, ev: Evaluation, fold_models: list[Model], ri
         gain = float(np.sum(cv_without - ev.cv)) / n
         test_without = ctx.test_rms(without)
         joints = tuple(ctx.arm.joint_names[j] for j in term.joints)
-        verdict = {name: test_verdict(test_without[j], final_test[j]) for j, name in enumerate(ctx.arm.joint_names) if name in joints}
+        verdict = {name: verdict_of(test_without[j], final_test[j]) for j, name in enumerate(ctx.arm.joint_names) if name in joints}
         same_effect = [next((t for t in fm.terms if ctx.layout.candidates[t.candidate].name == cand.name), None) for fm in fold_models]
         folds_selected = sum(t is not None for t in same_effect)
         joint_folds = {}
@@ -373,7 +374,7 @@ def _noise_report(ctx: Scoring, cutoff: float) -> EffectReport:
     votes = sum(bool(_gain_ok(pool.group_rr_raw[g], pool.group_rr[g], pool.group_samples[g]).any()) for g in range(len(pool.groups)))
     raw_test = _rms(ctx.test.rr_raw, ctx.test.samples)
     den_test = _rms(ctx.test.rr, ctx.test.samples)
-    verdict = {name: test_verdict(raw_test[j], den_test[j]) for j, name in enumerate(ctx.arm.joint_names)}
+    verdict = {name: verdict_of(raw_test[j], den_test[j]) for j, name in enumerate(ctx.arm.joint_names)}
     selected = bool(ok.any())
     reason = (
         f"filtering q̇ at {cutoff:g} Hz before differentiating removes {gain:.4g} N·m² per sample of the training residual (no fit)"

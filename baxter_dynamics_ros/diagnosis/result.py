@@ -17,7 +17,7 @@ from ..core.effects import Effect
 from .fit import MAX_OFFSET_DRIFT_NM
 from .gap_analysis import GapSummary
 
-__all__ = ["STABLE_FRACTION", "VERDICT_TOLERANCE", "DiagnosisResult", "EffectReport", "hidden_torque", "joint_list", "test_verdict"]
+__all__ = ["STABLE_FRACTION", "VERDICT_TOLERANCE", "DiagnosisResult", "EffectReport", "hidden_torque", "joint_list", "verdict_of"]
 
 #: Effects chosen in fewer than this fraction of the cross-validation folds are uncertain.
 STABLE_FRACTION = 0.75
@@ -200,7 +200,7 @@ def joint_list(names: Sequence[str]) -> str:
     return ", ".join(n.split("_", 1)[-1] for n in names)
 
 
-def test_verdict(without: float, with_: float) -> dict:
+def verdict_of(without: float, with_: float) -> dict:
     """A joint's held-out verdict: "helped", "hurt" or "no change" (within VERDICT_TOLERANCE), with both RMS, N·m."""
     change = (with_ - without) / max(without, 1e-300)
     word = "helped" if change < -VERDICT_TOLERANCE else ("hurt" if change > VERDICT_TOLERANCE else "no change")

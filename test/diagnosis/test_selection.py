@@ -138,14 +138,14 @@ def test_folds_selected_is_the_folds_own_selection(arm, friction_run) -> None:
 def test_shares_are_shapley_values(arm, friction_run) -> None:
     """Each selected physical effect's share is its Shapley value in the training residual's fall,
     brute force over every subset of the selected effects: each subset refitted by numpy's least
-    squares per joint on q̇ and tanh(q̇/ε) of the pooled training recordings (denoised residual).
+    squares per joint on q̇ and tanh(q̇/ε) (q̇ low-passed by scipy at the diagnosis' cut-off) of the
+    pooled training recordings (denoised residual).
     The two frictions overlap at the joint they share, so a standalone value differs from it."""
     result, train, _ = friction_run
     selected = [e for e in result.effects if e.selected and e.name != "acceleration_noise"]
     assert {e.name for e in selected} == {"viscous_friction", "coulomb_friction"}
-    prepared = [prepare(arm, rec, result.cutoff_hz) for _, rec in train]
-    qd = np.vstack([p.qd for p in prepared])
-    r = np.vstack([p.residual for p in prepared])
+    qd = np.vstack([lowpassed_velocity(rec, result.cutoff_hz) for _, rec in train])
+    r = np.vstack([prepare(arm, rec, result.cutoff_hz).residual for _, rec in train])
     n = len(r)
     columns = {}
     for e in selected:
