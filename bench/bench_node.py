@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import signal
 import subprocess
 import sys
 import tempfile
@@ -41,6 +40,10 @@ from pathlib import Path
 import numpy as np
 
 from baxter_dynamics_ros.ros.ros_env import isolated_ros_env
+
+# The tests' way of stopping a node (SIGINT, then kill), shared with the benchmark's peers.
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "test"))
+from processes import interrupt  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 JOINTS = sorted(
@@ -300,15 +303,6 @@ def start_peer(args: Sequence[str]) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, *args], cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
 
 
-def stop_peer(process: subprocess.Popen) -> None:
-    process.send_signal(signal.SIGINT)
-    try:
-        process.wait(timeout=15)
-    except subprocess.TimeoutExpired:
-        process.kill()
-        process.wait()
-
-
 def measure(duration_s: float, rates_hz: Sequence[float], repeat: int) -> dict[tuple[float, int, str], Result]:
     """Results by (rate, round, answering topic): per rate, ``repeat`` rounds of echo, floor and node."""
     peers = {
@@ -329,7 +323,7 @@ def measure(duration_s: float, rates_hz: Sequence[float], repeat: int) -> dict[t
     finally:
         bench.close()
         for process in peers.values():
-            stop_peer(process)
+            interrupt(process)
     return results
 
 

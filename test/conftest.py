@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import os
 import shutil
-import signal
 import subprocess
 import sys
 import tempfile
@@ -33,6 +32,7 @@ from typing import Any
 import pytest
 
 from baxter_dynamics_ros.ros.ros_env import isolated_ros_env, lease_domain_id
+from processes import interrupt
 from repo_paths import REPO
 
 _session = ExitStack()
@@ -182,14 +182,7 @@ class NodeProcess:
 
     def stop(self, timeout_s: float = 15.0) -> int:
         """Ctrl-C (SIGINT), as a user stops it; kill if it does not exit in time. Returns the exit code."""
-        if self.alive():
-            self.process.send_signal(signal.SIGINT)
-            try:
-                self.process.wait(timeout=timeout_s)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
-                self.process.wait()
-        return self.process.returncode
+        return interrupt(self.process, timeout_s)
 
 
 class NodeProcesses:

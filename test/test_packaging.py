@@ -6,7 +6,6 @@ from __future__ import annotations
 import os
 import re
 import shutil
-import signal
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
@@ -14,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from processes import interrupt
 from repo_paths import REPO
 
 PACKAGE = "baxter_dynamics_ros"
@@ -150,12 +150,7 @@ def test_colcon_installs_the_interface_package_and_the_installed_node_serves_it(
         assert answer.returncode == 0, answer.stdout + answer.stderr + log.read_text()
         module_file, types, result = answer.stdout.strip().splitlines()[-3:]
     finally:
-        node.send_signal(signal.SIGINT)
-        try:
-            node.wait(timeout=15)
-        except subprocess.TimeoutExpired:
-            node.kill()
-            node.wait()
+        interrupt(node)
     assert module_file.startswith(str(colcon_install)), module_file
     assert types == ",".join(f"baxter_dynamics_interfaces/srv/{n}" for n in ("FlangeKinematics", "ForwardDynamics", "Gravity", "InverseDynamics", "MassMatrix"))
     success, effort = result.split()
