@@ -32,7 +32,6 @@ from scipy.optimize import lsq_linear
 
 from ..core.arm_model import ArmModel
 from ..core.joints import JOINTS as N
-from ..core.joints import S1
 from .inertial_fit import AT_BOUND, RIDGE, LinkSetup, WarmStart, fit_inertial, link_setup
 from .statistics import Candidate, ColumnLayout, Pool
 
@@ -128,13 +127,11 @@ class Fitter:
     # -- columns
     def term_columns(self, model: Model) -> list[np.ndarray]:
         """Each term's columns in the model (a spring takes the place of s1's offset and gain)."""
-        spring = self.layout.has_spring(model)
         out = []
         for t in model.terms:
             cand = self.layout.candidates[t.candidate]
             if cand.kind == "joint":
-                joints = [j for j in t.joints if not (spring and cand.spanned_by_spring and j == S1)]
-                out.append(cand.joint_columns(joints))
+                out.append(cand.joint_columns(self.layout.acting_joints(model, t)))
             else:
                 out.append(np.asarray(cand.columns, dtype=int))
         return out
@@ -182,8 +179,8 @@ class Fitter:
             return self._cache[key]
         full = None if fold is None else self._cache.get((model, -1))
         start = full.z if full is not None else None
-        offset = next((t for t in model.terms if self.layout.candidates[t.candidate].name == "torque_offset"), None)
-        joints = [] if offset is None else [j for j in offset.joints if not (j == S1 and self.layout.has_spring(model))]
+        offset = self.layout.offset_term(model)
+        joints = [] if offset is None else list(self.layout.acting_joints(model, offset))
         if joints:
             result = self._fit_with_offsets(model, offset, joints, fold, start)
         else:

@@ -100,7 +100,7 @@ class InertialSolution(NamedTuple):
 def link_setup(arm: ArmModel, cand: Candidate) -> LinkSetup:
     """The prior and the bounds of an inertial candidate's log-Cholesky coordinates (its links', or
     the payload's at the flange)."""
-    if cand.name == "payload":
+    if cand.is_payload:
         m0, c0, g0 = PAYLOAD_PRIOR_MEAN["mass_kg"], np.array(PAYLOAD_PRIOR_MEAN["com_m"]), PAYLOAD_PRIOR_MEAN["gyration_m"]
         phi0 = np.concatenate([[0.5 * np.log(m0)], np.full(3, np.log(g0)), np.zeros(3), c0])[None]
         std = _prior_std(PAYLOAD_PRIOR_STD, g0)[None]

@@ -81,7 +81,7 @@ def inertial_params(arm: ArmModel, fitter: Fitter, cand: Candidate, term: Term, 
     cov = fit.phi_cov[term.candidate]
     _, prior_std, lower, upper, _ = fitter.link_setup(cand)
     links = []
-    if cand.name == "payload":
+    if cand.is_payload:
         rep = _link_report("payload", phi[0], cov, (prior_std[0], lower[0], upper[0]), None)
         params = {"mass_kg": rep["mass_kg"], **{f"com_m[{a}]": v for a, v in zip("xyz", rep["com_m"])}}
         params.update({f"inertia_kgm2[{q}]": v for q, v in zip(("xx", "xy", "xz", "yy", "yz", "zz"), rep["inertia_about_com_kgm2"])})

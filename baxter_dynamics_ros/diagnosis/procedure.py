@@ -299,7 +299,7 @@ def _selected_reports(ctx: Scoring, ev: Evaluation, fold_models: list[Model], ri
             for other in sorted(cand.alternatives)
         }
         alternatives = {k: v for k, v in alternatives.items() if v}
-        drift = _offset_drift(ctx, final, ev.fit, term) if cand.name == "torque_offset" else None
+        drift = _offset_drift(ctx, final, ev.fit, term) if cand.is_offset else None
         reason = f"removes {gain:.4g} N·m² per sample of held-out error (cross-validated); at {joint_list(joints)}"
         if alternatives:
             reason += "; in other folds its alternative " + ", ".join(f"{k} ({v} of {len(fold_models)})" for k, v in alternatives.items())

@@ -215,7 +215,7 @@ def _html(result: DiagnosisResult, plots: dict[str, Path]) -> str:
         stability = f"{e.folds_selected}/{e.folds}" if e.selected else "—"
         effect_rows.append(
             [
-                str(e.rank), e.name, ("yes, uncertain" if e.uncertain else "yes") if e.selected else "no", e.variant, ", ".join(_short(e.joints)),
+                str(e.rank), e.name, ("yes, uncertain" if e.uncertain else "yes") if e.selected else "no", e.variant or "", ", ".join(_short(e.joints)),
                 f"{e.share:.4g}" if e.selected else "—", f"{e.cv_gain:.4g}", stability, _fmt_params(e), e.reason,
             ]  # fmt: skip
         )

@@ -47,7 +47,7 @@ class EffectReport:
     """
 
     name: str
-    variant: str
+    variant: str | None  # the shape parameter's value; None where the effect has one form
     selected: bool
     reason: str
     test_rms_before: np.ndarray

@@ -129,12 +129,7 @@ class _Search:
     # -- evaluation
     def canonical(self, model: Model) -> Model:
         """With the s1 spring in a model, s1 has no offset or gain of its own (the spring spans them)."""
-        if not self.layout.has_spring(model):
-            return model
-        for t in model.terms:
-            if self.layout.candidates[t.candidate].spanned_by_spring and S1 in t.joints:
-                model = model.with_term(Term(t.candidate, tuple(j for j in t.joints if j != S1)))
-        return model
+        return Model.of([Term(t.candidate, self.layout.acting_joints(model, t)) for t in model.terms])
 
     def reweight(self, model: Model) -> Evaluation:
         """Weights from the model's own held-out error (two passes: the fits depend on the weights)."""
@@ -342,9 +337,9 @@ class _Search:
         term's joints (or all it touches), the spring in place of s1's offset and back; None where
         it cannot act."""
         cand, other = self.layout.candidates[term.candidate], self.layout.candidates[index]
-        offset = next((t for t in model.terms if self.layout.candidates[t.candidate].name == "torque_offset"), None)
+        offset = self.layout.offset_term(model)
         if other.is_spring:  # the offset at s1 gives way to the spring's preload
-            return model.with_term(Term(index, self._touched(index))) if cand.name == "torque_offset" and S1 in term.joints else None
+            return model.with_term(Term(index, self._touched(index))) if cand.is_offset and S1 in term.joints else None
         if cand.is_spring:  # the spring gives way to an offset at s1
             joints = tuple(sorted(set(offset.joints if offset else ()) | {S1}))
             return model.without(term.candidate).with_term(Term(index, joints))
@@ -426,7 +421,8 @@ def rivalries(arm: ArmModel, layout: ColumnLayout, pool: Pool, final: Evaluation
             if name not in pair:
                 continue
             (rival,) = pair - {name}
-            if rival in names and not (rival == "torque_offset" and S1 not in names[rival].joints):
+            held = names.get(rival)
+            if held is not None and not (layout.candidates[held.candidate].is_offset and S1 not in held.joints):
                 continue  # both selected: the data told them apart
             swaps = (search.in_place_of(final.model, term, index) for index, c in enumerate(layout.candidates) if c.name == rival)
             trials = [search.evaluate(m) for m in swaps if m is not None]
@@ -447,13 +443,13 @@ def select(arm: ArmModel, layout: ColumnLayout, pool: Pool) -> Selection:
 
 def explain_unselected(
     arm: ArmModel, layout: ColumnLayout, pool: Pool, final: Evaluation, fitter: Fitter
-) -> dict[str, tuple[str, Evaluation | None, str]]:
+) -> dict[str, tuple[str | None, Evaluation | None, str]]:
     """For each effect not in the final model: (variant, the trial of adding its best variant or
     None, why it is not selected), judged as the search would, under the final model's weights."""
     search = _Search(arm, layout, pool)
     search.fitter = fitter
     selected = {layout.candidates[t.candidate].name for t in final.model.terms}
-    out: dict[str, tuple[str, Evaluation | None, str]] = {}
+    out: dict[str, tuple[str | None, Evaluation | None, str]] = {}
     for index, cand in enumerate(layout.candidates):
         if cand.name in selected:
             continue

@@ -31,6 +31,7 @@ from ..core.effects import (
     Delay,
     Effect,
     InertialError,
+    Payload,
     S1Spring,
     StribeckFriction,
     TorqueGain,
@@ -38,6 +39,7 @@ from ..core.effects import (
     ViscousFriction,
 )
 from ..core.joints import JOINTS as N
+from ..core.joints import S1
 from ..core.recording import Recording
 
 __all__ = [
@@ -85,18 +87,19 @@ class Candidate:
     ``columns[k * 7 + j]`` is parameter k at joint j); "linear" — a fixed set of columns (the s1
     spring); "inertial" — inertial parameters of whole links, fitted through the log-Cholesky
     parametrisation (:mod:`baxter_dynamics_ros.core.log_cholesky`), ``links`` the link indices.
-    lower: (p,) lower bounds of the linear kinds' parameters; prior_std: (p,) standard deviations of
+    lower: (p,) lower bounds of the linear kinds' parameters; variant: the shape parameter's value
+    (None where the effect has one form); prior_std: (p,) standard deviations of
     the zero-mean Gaussian priors of a "linear" kind's parameters (inf: none). alternatives: the
     effects it is an alternative of (:data:`FAMILIES`: at most one of them per joint);
     spanned_by_spring: with the s1 spring in a model it does not act at s1 (:data:`SPANNED_BY_SPRING`).
     """
 
     name: str
-    variant: str
     kind: str
     template: Effect
     columns: np.ndarray
     lower: np.ndarray
+    variant: str | None = None
     p_joint: int = 0
     links: tuple[int, ...] = ()
     prior_std: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -106,6 +109,14 @@ class Candidate:
     @property
     def is_spring(self) -> bool:
         return isinstance(self.template, S1Spring)
+
+    @property
+    def is_offset(self) -> bool:
+        return isinstance(self.template, TorqueOffset)
+
+    @property
+    def is_payload(self) -> bool:
+        return isinstance(self.template, Payload)
 
     @property
     def label(self) -> str:
@@ -129,23 +140,34 @@ class ColumnLayout:
         """Whether the s1 spring is among a model's terms (:class:`~.fit.Model`)."""
         return any(self.candidates[t.candidate].is_spring for t in model.terms)
 
+    def acting_joints(self, model, term) -> tuple[int, ...]:
+        """The joints where a term (:class:`~.fit.Term`) of a model acts: its joints, without s1 for
+        an effect the s1 spring spans when the spring is in the model (:data:`SPANNED_BY_SPRING`)."""
+        if self.candidates[term.candidate].spanned_by_spring and self.has_spring(model):
+            return tuple(j for j in term.joints if j != S1)
+        return term.joints
+
+    def offset_term(self, model):
+        """The model's torque-offset term (:class:`~.fit.Term`), or None."""
+        return next((t for t in model.terms if self.candidates[t.candidate].is_offset), None)
+
 
 def column_layout() -> ColumnLayout:
     """The candidates of the diagnosis, in the order of :data:`~baxter_dynamics_ros.core.effects.EFFECTS`."""
     zero, free = 0.0, -np.inf
-    specs: list[tuple[str, str, str, Effect, int, float]] = [
-        ("torque_offset", "", "joint", TorqueOffset(offset_nm=0.0), 1, free),
-        ("viscous_friction", "", "joint", ViscousFriction(damping_nm_s_rad=0.0), 1, zero),
+    specs: list[tuple[str, str | None, str, Effect, int, float]] = [
+        ("torque_offset", None, "joint", TorqueOffset(offset_nm=0.0), 1, free),
+        ("viscous_friction", None, "joint", ViscousFriction(damping_nm_s_rad=0.0), 1, zero),
     ]
     for eps in (0.01, 0.05):
         specs.append(("coulomb_friction", f"smoothing {eps:g} rad/s", "joint", CoulombFriction(friction_nm=0.0, smoothing_rad_s=eps), 1, zero))
     for vs in (0.02, 0.05, 0.1, 0.2):
         specs.append(("stribeck_friction", f"v_s {vs:g} rad/s", "joint", StribeckFriction(coulomb_nm=0.0, static_nm=0.0, stribeck_rad_s=vs), 2, zero))
-    specs.append(("s1_spring", "", "linear", S1Spring(), 4, free))
-    specs.append(("inertial_error", "", "inertial", InertialError(), 70, free))
-    specs.append(("armature", "", "joint", Armature(inertia_kgm2=0.0), 1, zero))
-    specs.append(("delay", "", "joint", Delay(delay_s=0.0), 1, free))
-    specs.append(("torque_gain", "", "joint", TorqueGain(gain=0.0), 1, free))
+    specs.append(("s1_spring", None, "linear", S1Spring(), 4, free))
+    specs.append(("inertial_error", None, "inertial", InertialError(), 70, free))
+    specs.append(("armature", None, "joint", Armature(inertia_kgm2=0.0), 1, zero))
+    specs.append(("delay", None, "joint", Delay(delay_s=0.0), 1, free))
+    specs.append(("torque_gain", None, "joint", TorqueGain(gain=0.0), 1, free))
     candidates, blocks, start = [], [], 0
     inertial_start = 0
     for name, variant, kind, template, p, low in specs:
@@ -153,16 +175,14 @@ def column_layout() -> ColumnLayout:
         columns = np.arange(start, start + width)
         if kind == "inertial":
             inertial_start = start
-            candidates.append(Candidate(name, variant, kind, template, columns, np.full(width, free), links=tuple(range(N))))
+            candidates.append(Candidate(name, kind, template, columns, np.full(width, free), variant, links=tuple(range(N))))
         else:
             prior = np.array((np.inf,) + (SPRING_PRIOR_STD_NM,) * (p - 1)) if kind == "linear" else np.zeros(0)
-            candidates.append(Candidate(name, variant, kind, template, columns, np.full(width, low), p_joint=p if kind == "joint" else 0, prior_std=prior))
+            candidates.append(Candidate(name, kind, template, columns, np.full(width, low), variant, p_joint=p if kind == "joint" else 0, prior_std=prior))
         blocks.append((template, start, width))
         start += width
     # The payload: a change of link 7's inertial parameters, the last 10 of inertial_error's columns.
-    from ..core.effects import Payload
-
-    payload = Candidate("payload", "", "inertial", Payload(mass_kg=1.0), np.arange(inertial_start + 60, inertial_start + 70), np.full(10, free), links=(N - 1,))
+    payload = Candidate("payload", "inertial", Payload(mass_kg=1.0), np.arange(inertial_start + 60, inertial_start + 70), np.full(10, free), links=(N - 1,))
     index = [c.name for c in candidates].index("inertial_error")
     candidates.insert(index, payload)
     related = [

@@ -28,6 +28,7 @@ test recordings (Pinocchio for the rigid body); this page shows the diagnosis' o
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Any
@@ -100,39 +101,36 @@ def _joint(values: list[float], scale: float) -> list[float]:
     return [scale * v for v in values]
 
 
+#: Each effect's parameters at a magnitude (1 = about what a real Baxter shows, 3 = three times).
+_SINGLE: dict[str, Callable[[float], dict[str, Any]]] = {
+    "torque_offset": lambda scale: {"offset_nm": _joint([0.4, 1.0, 0.5, 0.5, 0.2, 0.2, 0.1], scale)},
+    "viscous_friction": lambda scale: {"damping_nm_s_rad": _joint([1.0, 1.5, 0.6, 0.6, 0.15, 0.15, 0.05], scale)},
+    "coulomb_friction": lambda scale: {"friction_nm": _joint([0.5, 0.8, 0.4, 0.4, 0.1, 0.06, 0.03], scale)},
+    "stribeck_friction": lambda scale: {
+        "coulomb_nm": _joint([0.3, 0.5, 0.25, 0.25, 0.06, 0.04, 0.02], scale),
+        "static_nm": _joint([1.0, 1.5, 0.8, 0.8, 0.2, 0.08, 0.03], scale),
+        "stribeck_rad_s": 0.07,
+        "smoothing_rad_s": 0.03,
+    },
+    "s1_spring": lambda scale: {"preload_nm": 25.0 * scale / 3, "cosine_nm": 5.0 * scale / 3, "sine_nm": 20.0 * scale / 3},
+    "payload": lambda scale: {"mass_kg": 0.8 * scale, "com_m": [0.0, 0.02, 0.06]},
+    # Not link 2 (the s1 link): a change of its mass or centre of mass moves s1's torque as a
+    # function of q_s1 alone, exactly as the spring does (see the docs).
+    "inertial_error": lambda scale: {
+        "mass_scale": {"e0": 1 + 0.1 * scale, "e1": 1 + 0.1 * scale, "w1": 1 + 0.1 * scale},
+        "com_scale": {"e0": 1 + 0.1 * scale, "e1": 1 + 0.1 * scale},
+    },
+    "armature": lambda scale: {"inertia_kgm2": _joint([0.15, 0.15, 0.08, 0.08, 0.02, 0.02, 0.01], scale)},
+    "delay": lambda scale: {"delay_s": 0.01 * scale},
+    "torque_gain": lambda scale: {"gain": _joint([-0.08, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], scale)},
+    "acceleration_noise": lambda scale: {"velocity_noise_rad_s": 0.015 * (1 if scale < 2 else 2)},
+}
+
+
 def single_effect(name: str, scale: float) -> dict[str, Any]:
-    """One effect at magnitude ``scale`` (1 = about what a real Baxter shows, 3 = three times)."""
-    if name == "torque_offset":
-        return {"offset_nm": _joint([0.4, 1.0, 0.5, 0.5, 0.2, 0.2, 0.1], scale)}
-    if name == "viscous_friction":
-        return {"damping_nm_s_rad": _joint([1.0, 1.5, 0.6, 0.6, 0.15, 0.15, 0.05], scale)}
-    if name == "coulomb_friction":
-        return {"friction_nm": _joint([0.5, 0.8, 0.4, 0.4, 0.1, 0.06, 0.03], scale)}
-    if name == "stribeck_friction":
-        return {
-            "coulomb_nm": _joint([0.3, 0.5, 0.25, 0.25, 0.06, 0.04, 0.02], scale),
-            "static_nm": _joint([1.0, 1.5, 0.8, 0.8, 0.2, 0.08, 0.03], scale),
-            "stribeck_rad_s": 0.07,
-            "smoothing_rad_s": 0.03,
-        }
-    if name == "s1_spring":
-        return {"preload_nm": 25.0 * scale / 3, "cosine_nm": 5.0 * scale / 3, "sine_nm": 20.0 * scale / 3}
-    if name == "payload":
-        return {"mass_kg": 0.8 * scale, "com_m": [0.0, 0.02, 0.06]}
-    if name == "inertial_error":
-        # Not link 2 (the s1 link): a change of its mass or centre of mass moves s1's torque as a
-        # function of q_s1 alone, exactly as the spring does (see the docs).
-        grow = 1 + 0.1 * scale
-        return {"mass_scale": {"e0": grow, "e1": grow, "w1": grow}, "com_scale": {"e0": grow, "e1": grow}}
-    if name == "armature":
-        return {"inertia_kgm2": _joint([0.15, 0.15, 0.08, 0.08, 0.02, 0.02, 0.01], scale)}
-    if name == "delay":
-        return {"delay_s": 0.01 * scale}
-    if name == "torque_gain":
-        return {"gain": _joint([-0.08, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], scale)}
-    if name == "acceleration_noise":
-        return {"velocity_noise_rad_s": 0.015 * (1 if scale < 2 else 2)}
-    raise KeyError(name)
+    """One effect at magnitude ``scale`` (1 = about what a real Baxter shows, 3 = three times);
+    KeyError for a name that is no effect."""
+    return _SINGLE[name](scale)
 
 
 SINGLE_NAMES = CANDIDATE_NAMES

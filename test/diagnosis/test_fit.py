@@ -24,7 +24,7 @@ def arm():
     return validation_arm()
 
 
-def _index(layout, name: str, variant: str = "") -> int:
+def _index(layout, name: str, variant: str | None = None) -> int:
     return next(i for i, c in enumerate(layout.candidates) if c.name == name and c.variant == variant)
 
 
