@@ -111,7 +111,10 @@ def test_friction_columns_take_the_lowpassed_velocity() -> None:
 def test_candidates_know_their_alternatives_and_what_the_spring_spans() -> None:
     """Each candidate carries its relations: payload ⇄ inertial_error and Coulomb ⇄ Stribeck (every
     variant) are alternatives, nothing else is; the offset and the gain alone give way to the spring
-    at s1; the spring alone is the spring, and a layout knows whether a model holds it."""
+    at s1; the spring alone is the spring, the offset alone the offset and the payload alone the
+    payload; a layout knows whether a model holds the spring and its offset term, and where each
+    term acts (not at s1, beside the spring, for the offset and the gain; variants named only
+    where an effect has several)."""
     from baxter_dynamics_ros.diagnosis.fit import Model, Term
 
     layout = column_layout()
@@ -120,7 +123,19 @@ def test_candidates_know_their_alternatives_and_what_the_spring_spans() -> None:
         assert c.alternatives == frozenset(pairs.get(c.name, ())), c.label
         assert c.spanned_by_spring == (c.name in ("torque_offset", "torque_gain")), c.label
         assert c.is_spring == (c.name == "s1_spring"), c.label
+        assert c.is_offset == (c.name == "torque_offset"), c.label
+        assert c.is_payload == (c.name == "payload"), c.label
+        assert (c.variant is None) == (c.name not in ("coulomb_friction", "stribeck_friction")), c.label
     spring = next(i for i, c in enumerate(layout.candidates) if c.name == "s1_spring")
     offset = next(i for i, c in enumerate(layout.candidates) if c.name == "torque_offset")
     assert layout.has_spring(Model.of([Term(offset, (0,)), Term(spring, (1,))]))
     assert not layout.has_spring(Model.of([Term(offset, (0, 1))]))
+    gain = next(i for i, c in enumerate(layout.candidates) if c.name == "torque_gain")
+    viscous = next(i for i, c in enumerate(layout.candidates) if c.name == "viscous_friction")
+    with_spring = Model.of([Term(offset, (0, 1, 2)), Term(gain, (1,)), Term(viscous, (0, 1)), Term(spring, (1,))])
+    acting = {t.candidate: layout.acting_joints(with_spring, t) for t in with_spring.terms}
+    assert acting == {offset: (0, 2), gain: (), viscous: (0, 1), spring: (1,)}
+    without = Model.of([Term(offset, (0, 1, 2)), Term(viscous, (0, 1))])
+    assert [layout.acting_joints(without, t) for t in without.terms] == [(0, 1, 2), (0, 1)]
+    assert layout.offset_term(without) == Term(offset, (0, 1, 2))
+    assert layout.offset_term(Model.of([Term(viscous, (0,))])) is None
