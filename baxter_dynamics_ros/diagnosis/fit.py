@@ -284,7 +284,7 @@ class Fitter:
         cov[off_at, off_at] = self.lam / (self.weights[joints] * n) + between
         names = list(self.pool.recordings_without(fold))
         return Fit(
-            model, x, cov, free, inner.df + len(joints), inner.phi, inner.phi_cov, inner.z,
+            model, x, cov, free, inner.df + len(joints), phi=inner.phi, phi_cov=inner.phi_cov, z=inner.z,
             offsets={name: row for name, row in zip(names, per_recording)}, offset_joints=tuple(joints),
         )  # fmt: skip
 
@@ -349,5 +349,7 @@ class Fitter:
         self, model: Model, cols: np.ndarray, Hw: np.ndarray, bw: np.ndarray, constant: float, fold: int | None, start: np.ndarray | None
     ) -> Fit:
         terms = [(self.layout.candidates[t.candidate], t.candidate, where) for t, where in self.positions(model).items()]
-        solution = fit_inertial(terms, self.link_setup, self.lower(model), cols, Hw, bw, constant, self.lam, self._warm, fold is None, start)
-        return Fit(model, solution.x, solution.cov_x, solution.free, solution.df, solution.phi, solution.phi_cov, solution.z)
+        solution = fit_inertial(
+            terms, self.link_setup, self.lower(model), cols, Hw, bw, constant, lam=self.lam, warm=self._warm, exact=fold is None, start=start
+        )
+        return Fit(model, solution.x, solution.cov_x, solution.free, solution.df, phi=solution.phi, phi_cov=solution.phi_cov, z=solution.z)

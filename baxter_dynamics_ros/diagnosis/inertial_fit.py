@@ -131,6 +131,7 @@ def fit_inertial(
     Hw: np.ndarray,
     bw: np.ndarray,
     constant: float,
+    *,
     lam: float,
     warm: WarmStart,
     exact: bool,
