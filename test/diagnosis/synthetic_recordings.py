@@ -60,16 +60,18 @@ def recording(
     viscous: Sequence[float] | float = 0.0,
     coulomb: Sequence[float] | float = 0.0,
     coulomb_eps: float = 0.05,
+    armature: Sequence[float] | float = 0.0,
     carried: ArmModel | None = None,
     effort_noise_nm: float = 0.02,
     velocity_noise_rad_s: float = 0.0,
 ) -> Recording:
     """A recording of ``arm``'s side: RNEA of ``carried`` (default the arm itself) + viscous q̇ +
-    Coulomb tanh(q̇/ε) + noise, quantised; q̇ noise (if any) added to the recorded q̇ only."""
+    Coulomb tanh(q̇/ε) + armature q̈ + noise, quantised; q̇ noise (if any) added to the recorded q̇ only."""
     rng = np.random.default_rng(seed + 1000)
     t, q, qd, qdd = motion(arm, seed, seconds, rate_hz)
     effort = rigid_torque(carried or arm, q, qd, qdd)
     effort += np.asarray(viscous, dtype=float) * qd + np.asarray(coulomb, dtype=float) * np.tanh(qd / coulomb_eps)
+    effort += np.asarray(armature, dtype=float) * qdd
     effort += rng.normal(0.0, effort_noise_nm, effort.shape)
     effort = np.round(effort / EFFORT_QUANTUM_NM) * EFFORT_QUANTUM_NM
     qd_recorded = qd + rng.normal(0.0, velocity_noise_rad_s, qd.shape) if velocity_noise_rad_s else qd

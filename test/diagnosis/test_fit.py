@@ -31,7 +31,8 @@ def _index(layout, name: str, variant: str | None = None) -> int:
 def test_linear_fit_and_cross_validation_are_least_squares(arm) -> None:
     """Viscous and Coulomb friction (ε 0.05 rad/s) at every joint: the fit's parameters are numpy's
     least squares of each joint's denoised residual on [q̇_j, tanh(q̇_j/ε)] (q̇ low-passed at the cut-off)
-    over both recordings, the effective number of parameters is their count, and the cross-validated
+    over both recordings, their covariance λ (XᵀX)⁻¹ per joint (λ the samples per effective sample,
+    unit weights), the effective number of parameters is their count, and the cross-validated
     error is the held-out squared error of the fit on the other recording, per joint."""
     layout = column_layout()
     named = [("A", recording(arm, 81, viscous=VISCOUS, coulomb=COULOMB)), ("B", recording(arm, 82, viscous=VISCOUS, coulomb=COULOMB))]
@@ -54,6 +55,7 @@ def test_linear_fit_and_cross_validation_are_least_squares(arm) -> None:
         coef = np.linalg.lstsq(X, r, rcond=None)[0]
         assert np.all(coef > 0)  # bounds inactive: the reference needs none
         np.testing.assert_allclose(fit.x[[j, N + j]], coef, rtol=1e-6)
+        np.testing.assert_allclose(fit.cov_x[np.ix_([j, N + j], [j, N + j])], 3.0 * np.linalg.inv(X.T @ X), rtol=1e-6)
         for out in range(2):
             p_fit, p_out = prepared[1 - out], prepared[out]
             c = np.linalg.lstsq(columns(p_fit, j), p_fit.residual[:, j], rcond=None)[0]
@@ -61,6 +63,28 @@ def test_linear_fit_and_cross_validation_are_least_squares(arm) -> None:
     assert fit.df == pytest.approx(2 * N, abs=1e-4)
     np.testing.assert_allclose(fitter.cv_sse(model)[0], cv, rtol=1e-6)
     np.testing.assert_allclose(fit.x[:N], VISCOUS, rtol=0.1)
+
+
+@pytest.mark.parametrize("name", ["viscous_friction", "armature"])
+def test_dissipation_and_rotor_inertia_stop_at_zero(arm, name: str) -> None:
+    """Viscous friction and armature are physical only ≥ 0: injected negative (−VISCOUS, or −0.1
+    kg·m² at every joint), the fit holds every joint's parameter at 0 and marks it not free;
+    injected positive, the same fit leaves it free and finds it (within 10 %)."""
+    layout = column_layout()
+    index = _index(layout, name)
+    model = Model.of([Term(index, tuple(range(N)))])
+
+    def fitted(sign: float):
+        effect = {"viscous": sign * np.asarray(VISCOUS)} if name == "viscous_friction" else {"armature": sign * 0.1}
+        named = [(f"{name}{s}", recording(arm, s, **effect)) for s in (71, 72)]
+        return Fitter(arm, layout, Pool.of(blocks_of(arm, named, CUTOFF_HZ)), np.ones(N), 3.0).fit(model)
+
+    truth = np.asarray(VISCOUS) if name == "viscous_friction" else np.full(N, 0.1)
+    below, above = fitted(-1.0), fitted(1.0)
+    np.testing.assert_array_equal(below.x, np.zeros(N))
+    assert not below.free.any()
+    assert above.free.all()
+    np.testing.assert_allclose(above.x, truth, rtol=0.1)
 
 
 def _fitted_payload(arm, load: Payload) -> tuple[float, np.ndarray]:

@@ -180,6 +180,28 @@ def test_shares_are_shapley_values(arm, friction_run) -> None:
 
 
 # ----------------------------------------------------------------------------- weak or absent effects
+def test_a_joint_gains_by_five_percent_a_hundredth_of_a_newton_metre_and_in_most_folds(arm) -> None:
+    """The rule for an effect to pay at a joint, on held-out errors set by hand (two folds of equal
+    size, 1 N·m RMS before at every joint but w2, 0.1 N·m there): s0 loses 6 % of its squared
+    error in both folds (pays); s1 4 % (does not: under 5 %); e0 7 % in one fold and 4 % in the other
+    (5.5 % in sum: pays); e1 30 % in one fold but rises in the other (does not: not most folds); w0
+    nothing; w1 12 % in one fold and nothing in the other (does not: one fold of two is not most);
+    w2 6 %, but 0.003 N·m of RMS (does not: under 0.01 N·m)."""
+    named = [(f"g{s}", recording(arm, s, seconds=4.0)) for s in (61, 62)]
+    search = _Search(arm, column_layout(), Pool.of(blocks_of(arm, named, CUTOFF_HZ)))
+    n = search.pool.samples
+    before_fold = np.full((2, N), n / 2)
+    before_fold[:, 6] = 0.01 * n / 2
+    drop = np.array([[0.06, 0.04, 0.07, 0.30, 0.0, 0.12, 0.06], [0.06, 0.04, 0.04, -0.10, 0.0, 0.0, 0.06]])
+    after_fold = before_fold * (1 - drop)
+
+    def evaluation(per_fold):
+        return Evaluation(Model(), None, [], per_fold.sum(axis=0), 0.0, per_fold)
+
+    ok = search.joint_gain_ok(evaluation(before_fold), evaluation(after_fold))
+    np.testing.assert_array_equal(ok, [True, False, True, False, False, False, False])
+
+
 def test_pure_noise_selects_nothing_physical(arm) -> None:
     """Recordings of the rigid arm with effort noise at the sensor's floor (0.1 N·m) and q̇ noise
     (0.015 rad/s) only: no physical effect is selected; the q̈ filter (acceleration_noise) is."""
