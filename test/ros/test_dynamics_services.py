@@ -16,7 +16,6 @@ ran) the service tests skip saying so; the node then starts without services and
 from __future__ import annotations
 
 import importlib.util
-import os
 import signal
 import subprocess
 import sys
@@ -322,13 +321,20 @@ def test_a_service_flood_neither_delays_nor_drops_joint_states(node, ros_client,
     probe = GravityProbe(ros_client)
     probe.warm_up(node)
     q, _, _ = random_states(RIGHT, N_LIVE, seed=24, qdd_max_rad_s2=1.0)
-    # The machine is shared: a latency bound missed once is measured again, both runs, once.
+    # The machine is shared: a latency bound missed once, or a sample lost once (the input is best
+    # effort, as Baxter publishes it: a saturated host may drop a datagram, flood or not; a full-suite
+    # run lost 67 of 1,000), is measured again, both runs, once.
     for _attempt in (1, 2):
         quiet, flooded, calls = _alone_and_flooded(probe, q, capsys)
         quiet_p50, quiet_p99 = np.percentile(quiet["latency_ms"], [50, 99])
         flood_p50, flood_p99 = np.percentile(flooded["latency_ms"], [50, 99])
-        if flood_p50 <= 2.0 * quiet_p50 + 1.0 and flood_p99 <= 2.0 * quiet_p99 + 5.0:
+        whole = all(run["answered"] == N_LIVE for run in (quiet, flooded))
+        if whole and flood_p50 <= 2.0 * quiet_p50 + 1.0 and flood_p99 <= 2.0 * quiet_p99 + 5.0:
             break
+    for run in (quiet, flooded):
+        assert run["answered"] == N_LIVE, f"{N_LIVE - run['answered']} of {N_LIVE} samples unanswered"
+        assert_close(run["effort"], RIGHT.gravity(q), "~/gravity", atol=1e-9)
+    np.testing.assert_array_equal(flooded["effort"], quiet["effort"])  # the same answers, bit for bit
     assert flood_p50 <= 2.0 * quiet_p50 + 1.0 and flood_p99 <= 2.0 * quiet_p99 + 5.0, (
         f"alone {_percentiles(quiet['latency_ms'])}; flooded {_percentiles(flooded['latency_ms'])}"
     )
@@ -357,8 +363,4 @@ def _alone_and_flooded(probe: GravityProbe, q: np.ndarray, capsys):
         print(f"\n500 Hz alone:        {_percentiles(quiet['latency_ms'])}")
         print(f"500 Hz with a flood: {_percentiles(flooded['latency_ms'])}; {calls} service calls answered meanwhile (~{calls / duration_s:.0f}/s)")
     assert failed == 0 and calls >= 20, out
-    for run in (quiet, flooded):
-        assert run["answered"] == N_LIVE, f"{N_LIVE - run['answered']} of {N_LIVE} samples unanswered"
-        assert_close(run["effort"], RIGHT.gravity(q), "~/gravity", atol=1e-9)
-    np.testing.assert_array_equal(flooded["effort"], quiet["effort"])  # the same answers, bit for bit
     return quiet, flooded, calls
