@@ -175,10 +175,10 @@ def column_layout() -> ColumnLayout:
         columns = np.arange(start, start + width)
         if kind == "inertial":
             inertial_start = start
-            candidates.append(Candidate(name, kind, template, columns, np.full(width, free), variant, links=tuple(range(N))))
+            candidates.append(Candidate(name, kind, template, columns, np.full(width, free), variant=variant, links=tuple(range(N))))
         else:
             prior = np.array((np.inf,) + (SPRING_PRIOR_STD_NM,) * (p - 1)) if kind == "linear" else np.zeros(0)
-            candidates.append(Candidate(name, kind, template, columns, np.full(width, low), variant, p_joint=p if kind == "joint" else 0, prior_std=prior))
+            candidates.append(Candidate(name, kind, template, columns, np.full(width, low), variant=variant, p_joint=p if kind == "joint" else 0, prior_std=prior))
         blocks.append((template, start, width))
         start += width
     # The payload: a change of link 7's inertial parameters, the last 10 of inertial_error's columns.

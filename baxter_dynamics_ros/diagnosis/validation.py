@@ -101,6 +101,13 @@ def _joint(values: list[float], scale: float) -> list[float]:
     return [scale * v for v in values]
 
 
+def _grown_links(grow: float) -> dict[str, Any]:
+    """Links e0, e1 and w1 heavier by the factor ``grow``, e0's and e1's centres of mass as far out.
+    Not link 2 (the s1 link): a change of its mass or centre of mass moves s1's torque as a function
+    of q_s1 alone, exactly as the spring does (see the docs)."""
+    return {"mass_scale": {"e0": grow, "e1": grow, "w1": grow}, "com_scale": {"e0": grow, "e1": grow}}
+
+
 #: Each effect's parameters at a magnitude (1 = about what a real Baxter shows, 3 = three times).
 _SINGLE: dict[str, Callable[[float], dict[str, Any]]] = {
     "torque_offset": lambda scale: {"offset_nm": _joint([0.4, 1.0, 0.5, 0.5, 0.2, 0.2, 0.1], scale)},
@@ -114,12 +121,7 @@ _SINGLE: dict[str, Callable[[float], dict[str, Any]]] = {
     },
     "s1_spring": lambda scale: {"preload_nm": 25.0 * scale / 3, "cosine_nm": 5.0 * scale / 3, "sine_nm": 20.0 * scale / 3},
     "payload": lambda scale: {"mass_kg": 0.8 * scale, "com_m": [0.0, 0.02, 0.06]},
-    # Not link 2 (the s1 link): a change of its mass or centre of mass moves s1's torque as a
-    # function of q_s1 alone, exactly as the spring does (see the docs).
-    "inertial_error": lambda scale: {
-        "mass_scale": {"e0": 1 + 0.1 * scale, "e1": 1 + 0.1 * scale, "w1": 1 + 0.1 * scale},
-        "com_scale": {"e0": 1 + 0.1 * scale, "e1": 1 + 0.1 * scale},
-    },
+    "inertial_error": lambda scale: _grown_links(1 + 0.1 * scale),
     "armature": lambda scale: {"inertia_kgm2": _joint([0.15, 0.15, 0.08, 0.08, 0.02, 0.02, 0.01], scale)},
     "delay": lambda scale: {"delay_s": 0.01 * scale},
     "torque_gain": lambda scale: {"gain": _joint([-0.08, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], scale)},
