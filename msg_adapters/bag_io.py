@@ -44,6 +44,8 @@ from .serialized_joint_states import (
 __all__ = [
     "DEFAULT_TOPIC",
     "RESULT_TOPICS",
+    "TopicData",
+    "joint_state_recording",
     "read_bag_recording",
     "read_joint_state_messages",
     "write_joint_state_bag",
@@ -67,8 +69,8 @@ Progress = Callable[[int, int], None]  # (messages done, messages in total)
 
 
 @dataclass(frozen=True)
-class _TopicData:
-    """The messages of one topic: their bag receive times (n,) ns, and the blocks they decode into."""
+class TopicData:
+    """The messages of one topic: their receive times (n,) ns, and the blocks they decode into."""
 
     topic: str
     log_times_ns: np.ndarray
@@ -79,7 +81,7 @@ def _is_ros1(path: Path) -> bool:
     return path.suffix == ".bag"
 
 
-def _read_topics(path: Path, topics: Sequence[str] | None, progress: Progress | None) -> list[_TopicData]:
+def _read_topics(path: Path, topics: Sequence[str] | None, progress: Progress | None) -> list[TopicData]:
     """Decode every JointState-like message on ``topics`` (None: every such topic) of a bag."""
     if not path.exists():
         raise RecordingFileError(f"{path}: no such file or directory")
@@ -119,7 +121,7 @@ def _read_topics(path: Path, topics: Sequence[str] | None, progress: Progress | 
         raise _corrupt(path, err) from err
     if progress is not None:
         progress(total, total)
-    return [_TopicData(topic, np.array(log_times[topic], dtype=np.int64), blocks[topic]) for topic in msgtypes]
+    return [TopicData(topic, np.array(log_times[topic], dtype=np.int64), blocks[topic]) for topic in msgtypes]
 
 
 def _decoder(path: Path, deserialize: Callable[[bytes, str], object], msgtype: str) -> Callable[[bytes], object]:
@@ -179,6 +181,16 @@ def read_bag_recording(
     """
     path = Path(path)
     (data,) = _read_topics(path, [topic], progress)
+    return joint_state_recording(path, data, arm=arm, note=note, where=f"on {topic}")
+
+
+def joint_state_recording(
+    path: Path, data: TopicData, *, arm: str | None, note: Callable[[str], None] | None, where: str
+) -> Recording:
+    """The recording of one arm from the decoded joint states of one topic (``read_bag_recording``).
+
+    where: where the messages were, for the user ("on /robot/joint_states").
+    """
     complete = [b for b in data.blocks if b.position is not None and b.velocity is not None and b.effort is not None]
     if arm is None:
         names = {name for b in complete for name in b.names}
@@ -188,7 +200,7 @@ def read_bag_recording(
     if not chosen:
         seen = sorted({name for b in data.blocks for name in b.names})
         raise RecordingFileError(
-            f"{path}: no message on {topic} has position, velocity and effort of all 7 {arm} arm joints "
+            f"{path}: no message {where} has position, velocity and effort of all 7 {arm} arm joints "
             f"({', '.join(joints)}); joint names found: {', '.join(seen) or 'none'}"
         )
     index = np.concatenate([b.index for b in chosen])
@@ -200,7 +212,7 @@ def read_bag_recording(
         np.concatenate([_columns(getattr(b, f), b.names, joints) for b in chosen])[order]
         for f in ("position", "velocity", "effort")
     )
-    malformed = _malformed(data.blocks, joints, topic)
+    malformed = _malformed(data.blocks, joints, where)
     if malformed is not None and note is not None:
         note(f"WARNING: {path}: {malformed}")
     recording = plausible_recording(str(path), arm, stamps_ns, q, qd, effort, note)
@@ -209,7 +221,7 @@ def read_bag_recording(
     return recording
 
 
-def _malformed(blocks: list[JointStateBlock], joints: Sequence[str], topic: str) -> str | None:
+def _malformed(blocks: list[JointStateBlock], joints: Sequence[str], where: str) -> str | None:
     """What the messages that are no sample of the arm (``joints``) were, in words; None if none.
 
     The causes are the node's (:class:`~baxter_dynamics_ros.core.samples.SkipReason`): one of the
@@ -224,7 +236,7 @@ def _malformed(blocks: list[JointStateBlock], joints: Sequence[str], topic: str)
     if not missing + length:
         return None
     causes = [f"{missing} {SkipReason.MISSING_JOINT.value}"] * bool(missing) + [f"{length} {SkipReason.ARRAY_LENGTH.value}"] * bool(length)
-    return f"{missing + length} of {total} messages on {topic} skipped as malformed ({', '.join(causes)})"
+    return f"{missing + length} of {total} messages {where} skipped as malformed ({', '.join(causes)})"
 
 
 def _other_arm(blocks: list[JointStateBlock], side: str) -> OtherArm | None:

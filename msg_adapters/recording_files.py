@@ -1,7 +1,9 @@
 """Which reader and writer a path calls for, and output written whole or not at all.
 
-Inputs: ``.csv``, ``.txt``, ``.parquet`` are tables (:mod:`msg_adapters.csv_io`); anything else
-is a bag (:mod:`msg_adapters.bag_io`: ``.bag``, a ROS 2 bag directory, ``.mcap``, ``.db3``).
+Inputs: ``.csv``, ``.txt``, ``.parquet`` are tables (:mod:`msg_adapters.csv_io`; joint states
+dumped by ``rostopic echo -p``, recognised by their header: :mod:`msg_adapters.rostopic_table`);
+anything else is a bag (:mod:`msg_adapters.bag_io`: ``.bag``, a ROS 2 bag directory, ``.mcap``,
+``.db3``).
 
 Outputs, by the path's extension:
 
@@ -28,6 +30,7 @@ from baxter_dynamics_ros.errors import RecordingError, RecordingFileError
 
 from .bag_io import DEFAULT_TOPIC, Progress, read_bag_recording, write_joint_state_bag, write_processed_bag
 from .csv_io import Note, joint_state_columns, read_table_recording, write_processed_table, write_table
+from .rostopic_table import is_rostopic_table, read_rostopic_recording
 
 __all__ = ["BAG_SUFFIXES", "OUTPUT_FORMATS", "TABLE_SUFFIXES", "is_bag_folder", "check_output", "print_to_stderr", "read_recording", "write_joint_states", "write_processed"]
 
@@ -60,6 +63,8 @@ def read_recording(
     """
     path = Path(path)
     try:
+        if path.suffix in TABLE_SUFFIXES and is_rostopic_table(path):
+            return read_rostopic_recording(path, arm=arm, note=note)
         if path.suffix in TABLE_SUFFIXES:
             return read_table_recording(path, arm=arm, rate_hz=rate_hz, note=note)
         return read_bag_recording(path, topic=topic, arm=arm, progress=progress, note=note)

@@ -157,3 +157,31 @@ def read_output_bag(path: Path) -> dict[str, dict[str, np.ndarray]]:
 def listing_of(folder: Path) -> list[str]:
     """The names in ``folder``, sorted."""
     return sorted(p.name for p in folder.iterdir())
+
+
+def rostopic_plot_row(time_ns: int, stamp_ns: int, names: Sequence[str], *arrays, frame_id: str = "", seq: int = 0) -> str:
+    """One JointState as ``rostopic echo -p`` prints it: time, seq, stamp (ns), frame_id, the names,
+    then each non-empty array's values as Python's str() (an empty array prints nothing)."""
+    fields = [str(int(time_ns)), str(seq), str(int(stamp_ns)), frame_id, *names]
+    for values in arrays:
+        fields += [str(float(v)) for v in values]
+    return ",".join(fields)
+
+
+def rostopic_plot_header(names: Sequence[str], arrays: int = 3) -> str:
+    """The header line ``rostopic echo -p`` prints, named after a first message of ``names`` and ``arrays`` full arrays."""
+    fields = ["%time", "field.header.seq", "field.header.stamp", "field.header.frame_id"]
+    fields += [f"field.name{k}" for k in range(len(names))]
+    for array in ("position", "velocity", "effort")[:arrays]:
+        fields += [f"field.{array}{k}" for k in range(len(names))]
+    return ",".join(fields)
+
+
+def write_rostopic_table(path: Path, states: dict, names: Sequence[str] = BAXTER_JOINTS, receive_delay_ns: int = 0) -> Path:
+    """``rostopic echo -p -b`` of a bag of ``states``: receive time = stamp + receive_delay_ns."""
+    rows = [rostopic_plot_header(names)]
+    for k, stamp in enumerate(states["stamps_ns"]):
+        arrays = (states[f][k] for f in ("position", "velocity", "effort"))
+        rows.append(rostopic_plot_row(int(stamp) + receive_delay_ns, int(stamp), names, *arrays, seq=k))
+    path.write_text("\n".join(rows) + "\n")
+    return path

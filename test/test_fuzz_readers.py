@@ -3,7 +3,7 @@ recording / model / effects / thresholds, or the package's own error — never a
 
 Inputs: random bytes; random text from the characters these formats are made of; and real files
 (the packaged arm model and effects example, a thresholds file as `calibrate` writes it, a table
-in each layout) with one part replaced, removed or added, written back as text.
+in each layout, a ``rostopic echo -p`` dump) with one part replaced, removed or added, written back as text.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from repo_paths import REPO
-from recorded_bags import BAXTER_JOINTS, joint_states
+from recorded_bags import BAXTER_JOINTS, joint_states, rostopic_plot_header, rostopic_plot_row
 
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.cli.simulate import load_spec
@@ -157,7 +157,14 @@ def _table(layout: str, delimiter: str) -> str:
     return "\n".join([delimiter.join(columns), *rows]) + "\n"
 
 
-TABLES = [_table("baxter export", " "), _table("generic", ",")]
+def _rostopic_table() -> str:
+    """Joint states as ``rostopic echo -p`` prints them (every Baxter joint, 30 messages)."""
+    states = joint_states(30, names=BAXTER_JOINTS)
+    rows = [rostopic_plot_row(t, t, BAXTER_JOINTS, *(states[f][k] for f in ("position", "velocity", "effort"))) for k, t in enumerate(states["stamps_ns"])]
+    return "\n".join([rostopic_plot_header(BAXTER_JOINTS), *rows]) + "\n"
+
+
+TABLES = [_table("baxter export", " "), _table("generic", ","), _rostopic_table()]
 tokens = st.one_of(
     st.floats(allow_nan=True, allow_infinity=True).map(repr),
     st.sampled_from(["", "nan", "inf", "-inf", "1e999", "-", "0x10", "1,5", "١", "NaN", "True", "stamp_ns", "ang_s0"]),

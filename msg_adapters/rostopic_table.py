@@ -1,0 +1,197 @@
+"""Joint states dumped by ROS 1's ``rostopic echo -p``: a CSV table with one message per row.
+
+How many labs publish their Baxter recordings (``rostopic echo -p /robot/joint_states > run.csv``,
+or ``-b run.bag`` for a bag). The layout is rostopic's plot format:
+
+- a header line named after the *first* message: ``%time,field.header.seq,field.header.stamp,
+  field.header.frame_id,field.name0,…,field.position0,…,field.velocity0,…,field.effort0,…``;
+- per message: the time (ns; the bag's receive time with ``-b``, the header stamp when echoed
+  live), seq, the header stamp (ns), frame_id, the m joint names, then the position, velocity and
+  effort arrays, m numbers each, an empty array left out altogether.
+
+Messages of another length (a gripper's on Baxter's topic) keep their own fields, so each row is
+read on its own: its names are the fields after frame_id that are not numbers. Rows that are not a
+sample of the arm (a joint missing, an array missing or of another length, a value that is not a
+number) are skipped and counted as a bag's malformed messages are
+(:func:`msg_adapters.bag_io.joint_state_recording`, which assembles the recording); rows without a
+readable time, in a line of their own.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from baxter_dynamics_ros.core.recording import Recording
+from baxter_dynamics_ros.errors import RecordingFileError
+
+from .bag_io import TopicData, joint_state_recording
+from .serialized_joint_states import JointStateBlock
+
+__all__ = ["is_rostopic_table", "read_rostopic_recording", "read_rostopic_table"]
+
+#: How the header line of ``rostopic echo -p`` starts, and the field of the first joint name.
+HEADER_START = "%time,"
+NAMES_FIELD = "field.name0"
+STAMP_FIELD = "field.header.stamp"
+#: Bytes read to recognise the layout (a header of a few hundred joints fits).
+SNIFF_BYTES = 65536
+#: Rows decoded at a time.
+CHUNK_ROWS = 8192
+
+
+def is_rostopic_table(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is a file whose first line is the header of ``rostopic echo -p`` joint states."""
+    try:
+        with open(path, "rb") as f:
+            first = f.read(SNIFF_BYTES).split(b"\n", 1)[0].decode("utf-8")
+    except (OSError, UnicodeDecodeError):
+        return False
+    return first.startswith(HEADER_START) and NAMES_FIELD in first.rstrip("\r").split(",")
+
+
+def _nanoseconds(text: str) -> int:
+    """A time field, ns: rostopic writes integers; a float (a re-saved table) is rounded. ValueError
+    for anything else, or a time int64 nanoseconds cannot hold."""
+    try:
+        value: float = int(text)
+    except ValueError:
+        value = float(text)
+    if not abs(value) < 2.0**63:  # NaN too
+        raise ValueError(f"not a time in ns: {text!r}")
+    return round(value)
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _values(texts: list[str]) -> list[np.ndarray | None]:
+    """Each row's numbers (the comma-separated text after its names), None where one is not a number."""
+    if texts and all(texts):
+        try:
+            table = np.loadtxt(texts, delimiter=",", dtype=np.float64, ndmin=2, comments=None)
+        except ValueError:
+            pass  # ragged rows or a bad value: row by row
+        else:
+            if len(table) == len(texts):
+                return list(table)
+    out: list[np.ndarray | None] = []
+    for text in texts:
+        try:
+            out.append(np.array([float(x) for x in text.split(",")]) if text else np.zeros(0))
+        except ValueError:
+            out.append(None)
+    return out
+
+
+class _Rows:
+    """Rows read so far: their times, and blocks of rows naming the same joints (one per chunk)."""
+
+    def __init__(self) -> None:
+        self.times_ns: list[int] = []
+        self.stamps_ns: list[int] = []
+        self.blocks: list[JointStateBlock] = []
+        self.pending: dict[tuple[str, ...], tuple[list[int], list[str]]] = {}
+
+    def add(self, time_ns: int, stamp_ns: int, names: tuple[str, ...], numbers: str) -> None:
+        index, texts = self.pending.setdefault(names, ([], []))
+        index.append(len(self.times_ns))
+        texts.append(numbers)
+        self.times_ns.append(time_ns)
+        self.stamps_ns.append(stamp_ns)
+
+    def flush(self) -> None:
+        """Decode the pending rows into blocks of one name list and one array layout each."""
+        for names, (index, texts) in self.pending.items():
+            m = len(names)
+            groups: dict[int, list[tuple[int, np.ndarray | None]]] = {}
+            for k, values in zip(index, _values(texts)):
+                arrays = len(values) // m if values is not None and m and len(values) % m == 0 else 0
+                groups.setdefault(arrays if arrays in (1, 3) else 0, []).append((k, values))
+            for arrays, rows in groups.items():
+                rows_index = np.array([k for k, _ in rows], dtype=np.int64)
+                stamps = np.array([self.stamps_ns[k] for k in rows_index], dtype=np.int64)
+                values = np.array([v for _, v in rows], dtype=np.float64).reshape(len(rows), -1) if arrays else None
+                position = values[:, :m] if values is not None else None
+                velocity, effort = (values[:, m : 2 * m], values[:, 2 * m :]) if arrays == 3 else (None, None)
+                self.blocks.append(JointStateBlock(rows_index, names, stamps, position, velocity, effort))
+        self.pending = {}
+
+
+def _split_names(rest: str, previous: tuple[str, ...]) -> tuple[tuple[str, ...], str]:
+    """(names, the text of the numbers after them) of a row's fields from field.name0 on; the
+    previous row's names are tried first (the common case: every message names the same joints)."""
+    prefix = ",".join(previous) + ","
+    if previous and rest.startswith(prefix) and _is_number(rest[len(prefix) :].split(",", 1)[0]):
+        return previous, rest[len(prefix) :]
+    fields = rest.split(",")
+    m = 0
+    while m < len(fields) and not _is_number(fields[m]):
+        m += 1
+    return tuple(fields[:m]), ",".join(fields[m:])
+
+
+def read_rostopic_table(path: str | os.PathLike[str], note: Callable[[str], None] | None = None) -> TopicData:
+    """The joint-state messages of a ``rostopic echo -p`` table, as a bag topic's decoded messages.
+
+    Read in chunks of CHUNK_ROWS rows (an hour at 100 Hz is 0.5 GB of text). Rows whose time or
+    header stamp is not a time in ns (or that end before the names) are left out and counted in
+    one warning line said through ``note``.
+    """
+    path = Path(path)
+    rows = _Rows()
+    unreadable = 0
+    names: tuple[str, ...] = ()
+    try:
+        with open(path, encoding="utf-8") as f:
+            first = f.readline().rstrip("\r\n")
+            header = first.split(",")
+            if not first.startswith(HEADER_START) or NAMES_FIELD not in header:
+                raise RecordingFileError(f"{path}: not a table of rostopic echo -p joint states (its header must start {HEADER_START!r} and name {NAMES_FIELD})")
+            names_at = header.index(NAMES_FIELD)
+            stamp_at = header.index(STAMP_FIELD) if STAMP_FIELD in header[:names_at] else None
+            for line in f:
+                line = line.rstrip("\r\n")
+                if not line.strip():
+                    continue
+                fields = line.split(",", names_at)
+                try:
+                    if len(fields) <= names_at:
+                        raise ValueError("too few fields")
+                    time_ns = _nanoseconds(fields[0])
+                    stamp_ns = _nanoseconds(fields[stamp_at]) if stamp_at is not None else 0
+                except ValueError:
+                    unreadable += 1
+                    continue
+                names, numbers = _split_names(fields[names_at], names)
+                rows.add(time_ns, stamp_ns, names, numbers)
+                if len(rows.times_ns) % CHUNK_ROWS == 0:
+                    rows.flush()
+    except OSError as err:
+        raise RecordingFileError(f"{path}: cannot read the file ({err.strerror or err})") from err
+    except UnicodeDecodeError as err:
+        raise RecordingFileError(f"{path}: not a text table ({err})") from err
+    rows.flush()
+    if not rows.times_ns:
+        raise RecordingFileError(f"{path}: no messages under the header line" + f" ({unreadable} rows without a time in ns)" * bool(unreadable))
+    if unreadable and note is not None:
+        note(f"WARNING: {path}: {unreadable} of {unreadable + len(rows.times_ns)} rows skipped: their time or header stamp is not a time in ns, or they end before the joint names")
+    return TopicData("rostopic table", np.array(rows.times_ns, dtype=np.int64), rows.blocks)
+
+
+def read_rostopic_recording(path: str | os.PathLike[str], *, arm: str | None = None, note: Callable[[str], None] | None = None) -> Recording:
+    """One arm's recording from a ``rostopic echo -p`` table of joint states (module docstring).
+
+    Stamps are the header stamps (the time column when every header stamp is zero); arm: "right"
+    or "left", None to detect it as for a bag.
+    """
+    path = Path(path)
+    return joint_state_recording(path, read_rostopic_table(path, note), arm=arm, note=note, where="in this table")

@@ -1,0 +1,144 @@
+"""Joint states dumped by ``rostopic echo -p``: written here the way rostopic prints them
+(``recorded_bags.rostopic_plot_row``), read back exactly through ``read_recording``."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from recorded_bags import BAXTER_JOINTS, columns, joint_states, rostopic_plot_header, rostopic_plot_row, write_rostopic_table
+from repo_paths import REPO
+
+from baxter_dynamics_ros.core.joints import arm_joint_names
+from baxter_dynamics_ros.core.samples import SkipReason
+from baxter_dynamics_ros.errors import RecordingFileError
+from msg_adapters.recording_files import read_recording
+from msg_adapters import rostopic_table
+from msg_adapters.rostopic_table import is_rostopic_table
+
+N = 300
+
+
+def assert_arm(rec, states: dict, side: str, stamps_ns: np.ndarray | None = None) -> None:
+    assert rec.side == side
+    np.testing.assert_array_equal(rec.stamps_ns, states["stamps_ns"] if stamps_ns is None else stamps_ns)
+    for got, want in zip((rec.q, rec.qd, rec.effort), columns(states, arm_joint_names(side))):
+        np.testing.assert_array_equal(got, want)
+
+
+def test_a_rostopic_table_reads_back_exactly_with_the_moving_arm_detected(tmp_path: Path) -> None:
+    states = joint_states(N)
+    path = write_rostopic_table(tmp_path / "joint_states.csv", states, receive_delay_ns=2_500_000)
+    assert is_rostopic_table(path)
+    notes: list[str] = []
+    assert_arm(read_recording(path, note=notes.append), states, "right")
+    assert_arm(read_recording(path, arm="left", note=notes.append), states, "left")
+    assert notes == []
+
+
+@pytest.mark.parametrize("chunk_rows", [None, 5])
+def test_rows_of_other_layouts_are_matched_by_name_and_the_rest_skipped_and_counted(
+    tmp_path: Path, chunk_rows: int | None, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Shuffled names, a frame_id, gripper rows, rows without efforts, a corrupt value and a
+    truncated last line (a dump cut short): the arm's samples read exactly, the rest counted; the
+    same when the reader decodes a few rows at a time."""
+    if chunk_rows is not None:
+        monkeypatch.setattr(rostopic_table, "CHUNK_ROWS", chunk_rows)
+    states = joint_states(N)
+    rng = np.random.default_rng(3)
+    lines = [rostopic_plot_header(BAXTER_JOINTS)]
+    missing = length = 0
+    for k, stamp in enumerate(states["stamps_ns"]):
+        order = rng.permutation(len(BAXTER_JOINTS)) if k % 7 == 3 else np.arange(len(BAXTER_JOINTS))
+        names = [BAXTER_JOINTS[i] for i in order]
+        arrays = [states[f][k][order] for f in ("position", "velocity", "effort")]
+        if k % 19 == 9:  # the previous message's names and one more
+            names, arrays = names + ["torso_t0_extra"], [np.append(a, 0.0) for a in arrays]
+        lines.append(rostopic_plot_row(int(stamp) + 1000, int(stamp), names, *arrays, frame_id="base" * (k % 5 == 1), seq=k))
+        if k % 11 == 5:  # the gripper's joint states on the same topic
+            lines.append(rostopic_plot_row(int(stamp) + 2000, int(stamp) + 1, ["l_gripper_l_finger_joint", "l_gripper_r_finger_joint"], [0.01, 0.01], [0.0, 0.0], [0.0, 0.0]))
+            missing += 1
+        if k % 13 == 6:  # a message with an empty effort array
+            lines.append(rostopic_plot_row(int(stamp) + 3000, int(stamp) + 2, names, arrays[0], arrays[1], []))
+            length += 1
+        if k % 17 == 8:  # a value that is not a number
+            bad = rostopic_plot_row(int(stamp) + 4000, int(stamp) + 3, names, *arrays).split(",")
+            bad[-3] = "0.1x"
+            lines.append(",".join(bad))
+            length += 1
+    lines.append(rostopic_plot_row(int(states["stamps_ns"][-1]) + 10**7, int(states["stamps_ns"][-1]) + 10**7, BAXTER_JOINTS, *(states[f][0] for f in ("position", "velocity", "effort")))[:-40])
+    length += 1
+    path = tmp_path / "dump.txt"
+    path.write_text("\r\n".join(lines) + "\r\n")
+    notes: list[str] = []
+    assert_arm(read_recording(path, note=notes.append), states, "right")
+    assert notes == [
+        f"WARNING: {path}: {missing + length} of {len(lines) - 1} messages in this table skipped as malformed "
+        f"({missing} {SkipReason.MISSING_JOINT.value}, {length} {SkipReason.ARRAY_LENGTH.value})"
+    ]
+    assert missing and length
+
+
+def test_without_header_stamps_the_time_column_is_used(tmp_path: Path) -> None:
+    states = joint_states(40)
+    lines = [rostopic_plot_header(BAXTER_JOINTS)]
+    receive = states["stamps_ns"] + 1234
+    for k, t in enumerate(receive):
+        lines.append(rostopic_plot_row(int(t), 0, BAXTER_JOINTS, *(states[f][k] for f in ("position", "velocity", "effort"))))
+    path = tmp_path / "unstamped.csv"
+    path.write_text("\n".join(lines) + "\n")
+    assert_arm(read_recording(path, note=None), states, "right", stamps_ns=receive)
+
+
+def test_bad_rostopic_tables_are_refused_in_one_line(tmp_path: Path) -> None:
+    header = rostopic_plot_header(BAXTER_JOINTS)
+    only_header = tmp_path / "header.csv"
+    only_header.write_text(header + "\n")
+    with pytest.raises(RecordingFileError, match="no messages under the header line"):
+        read_recording(only_header, note=None)
+    binary = tmp_path / "binary.csv"
+    binary.write_bytes(header.encode() + b"\n\xff\xfe\x00garbage\n")
+    assert is_rostopic_table(binary)
+    with pytest.raises(RecordingFileError, match="not a text table"):
+        read_recording(binary, note=None)
+    gripper_only = tmp_path / "gripper.csv"
+    gripper = ["l_gripper_l_finger_joint"]
+    gripper_only.write_text(rostopic_plot_header(gripper) + "\n" + rostopic_plot_row(1, 1, gripper, [0.0], [0.0], [0.0]) + "\n")
+    with pytest.raises(RecordingFileError, match=r"no arm has all 7 joints .*found: l_gripper_l_finger_joint$"):
+        read_recording(gripper_only, note=None)
+    with pytest.raises(RecordingFileError, match=r"no message in this table has position, velocity and effort of all 7 left .*found: l_gripper_l_finger_joint$"):
+        read_recording(gripper_only, arm="left", note=None)
+
+
+def test_process_reads_a_rostopic_table_from_the_command_line(tmp_path: Path) -> None:
+    states = joint_states(N)
+    path = write_rostopic_table(tmp_path / "run.csv", states)
+    out = tmp_path / "out.csv"
+    done = subprocess.run(
+        [str(Path(sys.executable).with_name("baxter-dynamics")), "process", str(path), "--out", str(out)],
+        capture_output=True, text=True, cwd=REPO,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stderr == ""
+    header = out.read_text().splitlines()[0].split(",")
+    assert "residual_right_s0" in header and len(out.read_text().splitlines()) == N + 1
+
+
+def test_rows_without_a_time_are_skipped_and_counted_on_their_own(tmp_path: Path) -> None:
+    states = joint_states(40)
+    lines = [rostopic_plot_header(BAXTER_JOINTS)]
+    for k, t in enumerate(states["stamps_ns"]):
+        lines.append(rostopic_plot_row(int(t), int(t), BAXTER_JOINTS, *(states[f][k] for f in ("position", "velocity", "effort"))))
+    bad = [f"{2**70}" + lines[5][lines[5].index(","):], "nan" + lines[9][lines[9].index(","):], "12,0"]
+    path = tmp_path / "times.csv"
+    path.write_text("\n".join(lines[:5] + bad[:1] + lines[6:9] + bad[1:2] + lines[10:] + bad[2:]) + "\n")
+    keep = np.array([k for k in range(40) if k not in (4, 8)])
+    notes: list[str] = []
+    rec = read_recording(path, note=notes.append)
+    np.testing.assert_array_equal(rec.stamps_ns, states["stamps_ns"][keep])
+    np.testing.assert_array_equal(rec.q, columns(states, arm_joint_names("right"))[0][keep])
+    assert notes == [f"WARNING: {path}: 3 of 41 rows skipped: their time or header stamp is not a time in ns, or they end before the joint names"]
