@@ -14,6 +14,9 @@ nothing having been written; while it runs, KeyboardInterrupt (:class:`Terminate
 unwinds it so that its cleanups run (staged outputs and scratch folders removed, worker processes
 stopped), further signals being ignored meanwhile. Worker processes the command spawns leave
 SIGINT to this process (a Ctrl-C in a terminal reaches the whole process group) and die of SIGTERM.
+While worker processes are being spawned (:func:`signals_deferred`) a signal is acted on once they
+are: stopped in the middle of a spawn, a new process finds the pipe of its start-up data closed and
+prints a traceback of its own after the one ERROR line.
 """
 
 from __future__ import annotations
@@ -24,13 +27,16 @@ import os
 import signal
 import sys
 import threading
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from types import FrameType
 
 #: Whether a command is running (a signal unwinds it) rather than starting (a signal ends the process).
 _running = False
 #: The signal that stopped the command (SIGINT or SIGTERM), None while none came.
 _received: int | None = None
+#: Whether a signal is held until the end of a :func:`signals_deferred` block.
+_deferring = False
 #: set to 1 to see the traceback of an unexpected error instead of its one ERROR line
 DEBUG_VARIABLE = "BAXTER_DYNAMICS_DEBUG"
 #: signal -> (the one line printed, the exit status)
@@ -56,7 +62,29 @@ def _on_signal(signum: int, frame: FrameType | None) -> None:
         os.write(2, line.encode() + b"\n")
         os._exit(status)
     _received = signum
+    if not _deferring:
+        _raise(signum)
+
+
+def _raise(signum: int) -> None:
     raise Terminated if signum == signal.SIGTERM else KeyboardInterrupt
+
+
+@contextmanager
+def signals_deferred() -> Iterator[None]:
+    """A block a signal does not interrupt (worker processes being spawned): a SIGINT or SIGTERM
+    received meanwhile is raised, as :func:`_on_signal` would have, when the block ends."""
+    global _deferring
+    if _deferring or _received is not None:  # nested, or the command is already unwinding
+        yield
+        return
+    _deferring = True
+    try:
+        yield
+    finally:
+        _deferring = False
+    if _received is not None:
+        _raise(_received)
 
 
 def _thread_failed(args: threading.ExceptHookArgs) -> None:
@@ -81,7 +109,7 @@ else:
 
 from ..errors import BaxterDynamicsError
 
-__all__ = ["COMMANDS", "DEBUG_VARIABLE", "Terminated", "main"]
+__all__ = ["COMMANDS", "DEBUG_VARIABLE", "Terminated", "main", "signals_deferred"]
 
 #: command name -> (module implementing it, one-line help). The module is imported lazily.
 COMMANDS: dict[str, tuple[str, str]] = {

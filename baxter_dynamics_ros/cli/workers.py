@@ -33,6 +33,7 @@ from typing import Any
 
 from ..diagnosis.sources import Mapper, serial_map
 from ..errors import WorkerError
+from .main import signals_deferred
 
 __all__ = ["CONNECT_TIMEOUT_S", "add_worker_arguments", "check_scheduler", "default_jobs", "file_mapper", "one_thread"]
 
@@ -118,7 +119,8 @@ def file_mapper(jobs: int | None, scheduler: str | None, scratch: str | None = N
 def _pool_map(executor, function: Callable[[Any], Any], items: Sequence[Any]) -> list:
     from concurrent.futures.process import BrokenProcessPool
 
-    futures: list[Future] = [executor.submit(_trimmed, function, item) for item in items]
+    with signals_deferred():  # submitting spawns the workers
+        futures: list[Future] = [executor.submit(_trimmed, function, item) for item in items]
     try:
         return [f.result() for f in futures]
     except BrokenProcessPool as err:
@@ -172,9 +174,10 @@ def _started_client(stack: ExitStack, address: str, jobs: int, scratch: str | No
             where = scratch if scratch is not None else stack.enter_context(tempfile.TemporaryDirectory(prefix="baxter-dynamics-"))
             scratch = tempfile.mkdtemp(prefix="dask-", dir=where)  # removed with where
             stack.enter_context(dask.config.set({**settings, "temporary-directory": scratch}))
-            cluster = stack.enter_context(local_cluster(jobs, scratch))
-            client = stack.enter_context(Client(cluster))
-            client.run(one_thread)
+            with signals_deferred():  # the nannies spawn the workers; stopped once they are up, with the stack
+                cluster = stack.enter_context(local_cluster(jobs, scratch))
+                client = stack.enter_context(Client(cluster))
+                client.run(one_thread)
         else:
             stack.enter_context(dask.config.set(settings))
             _probe(address)

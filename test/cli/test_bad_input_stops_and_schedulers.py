@@ -323,3 +323,32 @@ def test_sigterm_at_any_time_is_one_line_and_exit_143(recordings: dict[str, Path
     assert "Traceback" not in stderr, stderr
     assert child.returncode == 143 and stderr.strip().splitlines()[-1] == "ERROR: terminated (SIGTERM)", stderr
     assert not (tmp_path / "work").exists() and listing(tmp_path / "tmp") == []
+
+
+_HOLDING_COMMAND = """
+import os, signal, sys, time, types
+from baxter_dynamics_ros.cli import main as cli
+hold = types.ModuleType("hold")
+hold.add_arguments = lambda parser: None
+def run(args):
+    with cli.signals_deferred():
+        os.kill(os.getpid(), signal.{signal})
+        time.sleep(0.3)
+        print("block ended", flush=True)
+    print("after the block", flush=True)
+    return 0
+hold.run = run
+sys.modules["hold"] = hold
+cli.COMMANDS["hold"] = ("hold", "a command whose block holds signals")
+sys.exit(cli.main(["hold"]))
+"""
+
+
+@pytest.mark.parametrize("name, line, status", [("SIGTERM", "ERROR: terminated (SIGTERM)", 143), ("SIGINT", "ERROR: interrupted", 130)])
+def test_a_signal_while_workers_are_spawned_is_acted_on_when_they_are(tmp_path: Path, name: str, line: str, status: int) -> None:
+    """Stopped in the middle of a spawn, a new worker found its start-up pipe closed and printed
+    "EOFError: Ran out of input" after the ERROR line (seen in a full run of this suite, --jobs 2
+    --scheduler local); the spawning block now ends first, then the command unwinds as usual."""
+    done = subprocess.run([sys.executable, "-c", _HOLDING_COMMAND.format(signal=name)], cwd=REPO, capture_output=True, text=True,
+                          timeout=60, env=environment(tmp_path / "tmp"))  # fmt: skip
+    assert (done.returncode, done.stdout, done.stderr) == (status, "block ended\n", line + "\n")
