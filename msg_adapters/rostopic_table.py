@@ -7,7 +7,9 @@ or ``-b run.bag`` for a bag). The layout is rostopic's plot format:
   field.header.frame_id,field.name0,…,field.position0,…,field.velocity0,…,field.effort0,…``;
 - per message: the time (ns; the bag's receive time with ``-b``, the header stamp when echoed
   live), seq, the header stamp (ns), frame_id, the m joint names, then the position, velocity and
-  effort arrays, m numbers each, an empty array left out altogether.
+  effort arrays, m numbers each, an empty array left out altogether. Baxter's
+  ``baxter_core_msgs/SEAJointState`` (``/robot/limb/<side>/gravity_compensation_torques``) is read
+  too, its ``actual_*`` arrays, as from a bag: its header names ``field.actual_position0``.
 
 Messages of another length (a gripper's on Baxter's topic) keep their own fields, so each row is
 read on its own: its names are the fields after frame_id that are not numbers. Rows that are not a
@@ -20,7 +22,9 @@ readable time, in a line of their own.
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -29,7 +33,7 @@ from baxter_dynamics_ros.core.recording import Recording
 from baxter_dynamics_ros.errors import RecordingFileError
 
 from .bag_io import TopicData, joint_state_recording
-from .serialized_joint_states import JointStateBlock
+from .serialized_joint_states import JOINT_ARRAYS, JOINT_STATE, SEA_JOINT_STATE, JointStateBlock
 
 __all__ = ["is_rostopic_table", "read_rostopic_recording", "read_rostopic_table"]
 
@@ -41,6 +45,8 @@ STAMP_FIELD = "field.header.stamp"
 SNIFF_BYTES = 65536
 #: Rows decoded at a time.
 CHUNK_ROWS = 8192
+#: A header field of an array's element (``field.position3``): its array is the name without the index.
+_ARRAY_FIELD = re.compile(r"\d+$")
 
 
 def is_rostopic_table(path: str | os.PathLike[str]) -> bool:
@@ -92,10 +98,37 @@ def _values(texts: list[str]) -> list[np.ndarray | None]:
     return out
 
 
+@dataclass(frozen=True)
+class _Layout:
+    """What follows a row's m names: ``count`` arrays of m numbers, then ``trailing`` single numbers;
+    q, q̇ and effort are the arrays at ``index`` (a JointState's position, velocity, effort; a
+    SEAJointState's actual_* arrays)."""
+
+    index: tuple[int, int, int]
+    count: int
+    trailing: int
+
+    @classmethod
+    def of_header(cls, path: Path, fields: list[str]) -> _Layout:
+        """The layout of the message type whose fields the header names after the joint names."""
+        arrays = list(dict.fromkeys(_ARRAY_FIELD.sub("", f) for f in fields if _ARRAY_FIELD.search(f)))
+        trailing = sum(not _ARRAY_FIELD.search(f) for f in fields)
+        msgtype = SEA_JOINT_STATE if "field.actual_position" in arrays else JOINT_STATE
+        if msgtype == JOINT_STATE and trailing:
+            raise RecordingFileError(f"{path}: not JointState or SEAJointState messages: fields {', '.join(f for f in fields if not _ARRAY_FIELD.search(f))} after the joint names")
+        spec = JOINT_ARRAYS[msgtype]
+        return cls(spec.index, spec.count, trailing)
+
+    def arrays(self, values: np.ndarray, m: int) -> list[np.ndarray]:
+        """q, q̇, effort (n, m) of rows of numbers (n, count·m + trailing)."""
+        return [values[:, i * m : (i + 1) * m] for i in self.index]
+
+
 class _Rows:
     """Rows read so far: their times, and blocks of rows naming the same joints (one per chunk)."""
 
-    def __init__(self) -> None:
+    def __init__(self, layout: _Layout) -> None:
+        self.layout = layout
         self.times_ns: list[int] = []
         self.stamps_ns: list[int] = []
         self.blocks: list[JointStateBlock] = []
@@ -109,20 +142,21 @@ class _Rows:
         self.stamps_ns.append(stamp_ns)
 
     def flush(self) -> None:
-        """Decode the pending rows into blocks of one name list and one array layout each."""
+        """Decode the pending rows into blocks of one name list each, those whose numbers fit the
+        layout apart from those that do not (an empty array left out, a value not a number)."""
         for names, (index, texts) in self.pending.items():
             m = len(names)
-            groups: dict[int, list[tuple[int, np.ndarray | None]]] = {}
+            width = self.layout.count * m + self.layout.trailing
+            fit: dict[bool, list[tuple[int, np.ndarray | None]]] = {True: [], False: []}
             for k, values in zip(index, _values(texts)):
-                arrays = len(values) // m if values is not None and m and len(values) % m == 0 else 0
-                groups.setdefault(arrays if arrays in (1, 3) else 0, []).append((k, values))
-            for arrays, rows in groups.items():
+                fit[bool(m) and values is not None and len(values) == width].append((k, values))
+            for fits, rows in fit.items():
+                if not rows:
+                    continue
                 rows_index = np.array([k for k, _ in rows], dtype=np.int64)
                 stamps = np.array([self.stamps_ns[k] for k in rows_index], dtype=np.int64)
-                values = np.array([v for _, v in rows], dtype=np.float64).reshape(len(rows), -1) if arrays else None
-                position = values[:, :m] if values is not None else None
-                velocity, effort = (values[:, m : 2 * m], values[:, 2 * m :]) if arrays == 3 else (None, None)
-                self.blocks.append(JointStateBlock(rows_index, names, stamps, position, velocity, effort))
+                arrays = self.layout.arrays(np.array([v for _, v in rows], dtype=np.float64), m) if fits else [None, None, None]
+                self.blocks.append(JointStateBlock(rows_index, names, stamps, *arrays))
         self.pending = {}
 
 
@@ -147,7 +181,6 @@ def read_rostopic_table(path: str | os.PathLike[str], note: Callable[[str], None
     one warning line said through ``note``.
     """
     path = Path(path)
-    rows = _Rows()
     unreadable = 0
     names: tuple[str, ...] = ()
     try:
@@ -158,6 +191,7 @@ def read_rostopic_table(path: str | os.PathLike[str], note: Callable[[str], None
                 raise RecordingFileError(f"{path}: not a table of rostopic echo -p joint states (its header must start {HEADER_START!r} and name {NAMES_FIELD})")
             names_at = header.index(NAMES_FIELD)
             stamp_at = header.index(STAMP_FIELD) if STAMP_FIELD in header[:names_at] else None
+            rows = _Rows(_Layout.of_header(path, [h for h in header[names_at:] if not h.startswith("field.name")]))
             for line in f:
                 line = line.rstrip("\r\n")
                 if not line.strip():

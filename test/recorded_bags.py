@@ -168,13 +168,14 @@ def rostopic_plot_row(time_ns: int, stamp_ns: int, names: Sequence[str], *arrays
     return ",".join(fields)
 
 
-def rostopic_plot_header(names: Sequence[str], arrays: int = 3) -> str:
-    """The header line ``rostopic echo -p`` prints, named after a first message of ``names`` and ``arrays`` full arrays."""
+def rostopic_plot_header(names: Sequence[str], arrays: Sequence[str] = ("position", "velocity", "effort"), scalars: Sequence[str] = ()) -> str:
+    """The header line ``rostopic echo -p`` prints, named after a first message of ``names``, its
+    non-empty float64[] ``arrays`` and its float64 ``scalars``, in the message's field order."""
     fields = ["%time", "field.header.seq", "field.header.stamp", "field.header.frame_id"]
     fields += [f"field.name{k}" for k in range(len(names))]
-    for array in ("position", "velocity", "effort")[:arrays]:
+    for array in arrays:
         fields += [f"field.{array}{k}" for k in range(len(names))]
-    return ",".join(fields)
+    return ",".join(fields + [f"field.{s}" for s in scalars])
 
 
 def write_rostopic_table(path: Path, states: dict, names: Sequence[str] = BAXTER_JOINTS, receive_delay_ns: int = 0) -> Path:

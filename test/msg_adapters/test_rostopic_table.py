@@ -142,3 +142,34 @@ def test_rows_without_a_time_are_skipped_and_counted_on_their_own(tmp_path: Path
     np.testing.assert_array_equal(rec.stamps_ns, states["stamps_ns"][keep])
     np.testing.assert_array_equal(rec.q, columns(states, arm_joint_names("right"))[0][keep])
     assert notes == [f"WARNING: {path}: 3 of 41 rows skipped: their time or header stamp is not a time in ns, or they end before the joint names"]
+
+
+SEA_ARRAYS = ("commanded_position", "commanded_velocity", "commanded_effort", "actual_position", "actual_velocity", "actual_effort",
+              "gravity_model_effort", "hysteresis_model_effort", "crosstalk_model_effort")  # fmt: skip
+
+
+def test_sea_joint_states_are_read_from_their_actual_arrays(tmp_path: Path) -> None:
+    """Baxter's /robot/limb/left/gravity_compensation_torques (baxter_core_msgs/SEAJointState): the
+    left arm's 7 joints, nine arrays and hystState; q, q̇, effort are the actual_* arrays."""
+    joints = arm_joint_names("left")
+    states = joint_states(60, names=joints)
+    rng = np.random.default_rng(5)
+    lines = [rostopic_plot_header(joints, SEA_ARRAYS, ("hystState",))]
+    for k, t in enumerate(states["stamps_ns"]):
+        arrays = [rng.normal(size=7) for _ in SEA_ARRAYS]
+        arrays[3:6] = [states[f][k] for f in ("position", "velocity", "effort")]
+        lines.append(rostopic_plot_row(int(t), int(t), joints, *arrays, [float(k % 2)]))
+    path = tmp_path / "gravity_compensation_torques.csv"
+    path.write_text("\n".join(lines) + "\n")
+    rec = read_recording(path, note=None)
+    assert rec.side == "left"
+    np.testing.assert_array_equal(rec.stamps_ns, states["stamps_ns"])
+    for got, want in zip((rec.q, rec.qd, rec.effort), (states["position"], states["velocity"], states["effort"])):
+        np.testing.assert_array_equal(got, want)
+
+
+def test_a_table_of_another_message_type_is_refused_naming_its_fields(tmp_path: Path) -> None:
+    path = tmp_path / "other.csv"
+    path.write_text(rostopic_plot_header(["a"], ("data",), ("count",)) + "\n1,0,1,,a,0.5,3\n")
+    with pytest.raises(RecordingFileError, match=r"not JointState or SEAJointState messages: fields field.count after the joint names"):
+        read_recording(path, note=None)
