@@ -15,8 +15,8 @@ unwinds it so that its cleanups run (staged outputs and scratch folders removed,
 stopped), further signals being ignored meanwhile. Worker processes the command spawns leave
 SIGINT to this process (a Ctrl-C in a terminal reaches the whole process group) and die of SIGTERM.
 While worker processes are being spawned (:func:`signals_deferred`) a signal is acted on once they
-are: stopped in the middle of a spawn, a new process finds the pipe of its start-up data closed and
-prints a traceback of its own after the one ERROR line.
+are, or at a second signal: stopped in the middle of a spawn, a new process finds the pipe of its
+start-up data closed and prints a traceback of its own after the one ERROR line.
 """
 
 from __future__ import annotations
@@ -53,17 +53,27 @@ def _ignored(signum: int, frame: FrameType | None) -> None:
 
 def _on_signal(signum: int, frame: FrameType | None) -> None:
     """SIGINT, SIGTERM: one line and exit 130, 143 before a command runs; KeyboardInterrupt
-    (:class:`Terminated`), once, while it runs."""
+    (:class:`Terminated`), once, while it runs; inside :func:`signals_deferred`, held until the
+    block ends, unless a second signal comes first."""
     global _received
-    for later in _ENDINGS:  # a second signal does not interrupt the cleanup (not SIG_IGN: a process
-        signal.signal(later, _ignored)  # spawned meanwhile would inherit it, and SIGTERM could not stop it)
+    if _running and _deferring and _received is None:
+        _received = signum
+        return
+    _ignore_further()
     if not _running:
         line, status = _ENDINGS[signum]
         os.write(2, line.encode() + b"\n")
         os._exit(status)
-    _received = signum
-    if not _deferring:
-        _raise(signum)
+    if _received is None:
+        _received = signum
+    _raise(_received)
+
+
+def _ignore_further() -> None:
+    """A second signal does not interrupt the cleanup (not SIG_IGN: a process spawned meanwhile
+    would inherit it, and SIGTERM could not stop it)."""
+    for later in _ENDINGS:
+        signal.signal(later, _ignored)
 
 
 def _raise(signum: int) -> None:
@@ -73,7 +83,8 @@ def _raise(signum: int) -> None:
 @contextmanager
 def signals_deferred() -> Iterator[None]:
     """A block a signal does not interrupt (worker processes being spawned): a SIGINT or SIGTERM
-    received meanwhile is raised, as :func:`_on_signal` would have, when the block ends."""
+    received meanwhile is raised, as :func:`_on_signal` would have, when the block ends — or at
+    once if a second one comes (a block that hangs can still be stopped)."""
     global _deferring
     if _deferring or _received is not None:  # nested, or the command is already unwinding
         yield
@@ -84,6 +95,7 @@ def signals_deferred() -> Iterator[None]:
     finally:
         _deferring = False
     if _received is not None:
+        _ignore_further()
         _raise(_received)
 
 
