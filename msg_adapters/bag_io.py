@@ -27,7 +27,7 @@ from rosbags.highlevel import AnyReader
 
 from baxter_dynamics_ros.core.joints import ARM_SIDES, arm_joint_names
 from baxter_dynamics_ros.core.plausibility import plausible_recording
-from baxter_dynamics_ros.core.recording import OtherArm, ProcessedRecording, Recording, detect_arm, require_activity
+from baxter_dynamics_ros.core.recording import OtherArm, ProcessedRecording, Recording, detect_arm, require_activity, summed_range_rad
 from baxter_dynamics_ros.core.samples import SkipReason
 from baxter_dynamics_ros.errors import RecordingFileError
 
@@ -192,6 +192,12 @@ def joint_state_recording(
     where: where the messages were, for the user ("on /robot/joint_states").
     """
     complete = [b for b in data.blocks if b.position is not None and b.velocity is not None and b.effort is not None]
+    if not complete:
+        seen = sorted({name for b in data.blocks for name in b.names})
+        raise RecordingFileError(
+            f"{path}: no message {where} has position, velocity and effort, one entry per name"
+            f" ({sum(len(b.index) for b in data.blocks)} messages; joint names found: {', '.join(seen) or 'none'})"
+        )
     if arm is None:
         names = {name for b in complete for name in b.names}
         arm = detect_arm(sorted(names), {side: _q_range(complete, side) for side in ARM_SIDES})
@@ -260,8 +266,7 @@ def _q_range(blocks: list[JointStateBlock], side: str) -> float:
     q = [_columns(b.position, b.names, joints) for b in blocks if set(joints) <= set(b.names)]
     if not q:
         return 0.0
-    stacked = np.concatenate(q)
-    return float(np.sum(stacked.max(axis=0) - stacked.min(axis=0)))
+    return summed_range_rad(np.concatenate(q))
 
 
 def read_joint_state_messages(

@@ -38,7 +38,7 @@ import numpy as np
 
 from baxter_dynamics_ros.core.joints import ARM_SIDES, JOINT_SUFFIXES, arm_joint_names
 from baxter_dynamics_ros.core.plausibility import package_bounds, plausible_recording, screen_samples
-from baxter_dynamics_ros.core.recording import OtherArm, ProcessedRecording, Recording, detect_arm, estimate_rate_hz, require_activity
+from baxter_dynamics_ros.core.recording import OtherArm, ProcessedRecording, Recording, detect_arm, estimate_rate_hz, require_activity, summed_range_rad
 from baxter_dynamics_ros.errors import RecordingFileError
 
 __all__ = ["RATE_TOLERANCE", "Note", "joint_state_columns", "read_table_recording", "write_processed_table", "write_table"]
@@ -199,7 +199,7 @@ def read_table_recording(
         joints = [c[len(q_prefix) :] for c in columns if c.startswith(q_prefix)]
         named = [j for j in joints if all(p + j in columns for p in prefixes)]
         ranges = {
-            side: float(sum(np.ptp(columns[q_prefix + j]) for j in arm_joint_names(side)))
+            side: summed_range_rad(np.column_stack([columns[q_prefix + j] for j in arm_joint_names(side)]))
             for side in ARM_SIDES
             if set(arm_joint_names(side)) <= set(named)
         }

@@ -33,9 +33,9 @@ from baxter_dynamics_ros.core.recording import Recording
 from baxter_dynamics_ros.errors import RecordingFileError
 
 from .bag_io import TopicData, joint_state_recording
-from .serialized_joint_states import JOINT_ARRAYS, JOINT_STATE, SEA_JOINT_STATE, JointStateBlock
+from .serialized_joint_states import JointStateBlock
 
-__all__ = ["is_rostopic_table", "read_rostopic_recording", "read_rostopic_table"]
+__all__ = ["is_rostopic_table", "read_rostopic_recording"]
 
 #: How the header line of ``rostopic echo -p`` starts, and the field of the first joint name.
 HEADER_START = "%time,"
@@ -53,10 +53,10 @@ def is_rostopic_table(path: str | os.PathLike[str]) -> bool:
     """Whether ``path`` is a file whose first line is the header of ``rostopic echo -p`` joint states."""
     try:
         with open(path, "rb") as f:
-            first = f.read(SNIFF_BYTES).split(b"\n", 1)[0].decode("utf-8")
+            first = f.read(SNIFF_BYTES).split(b"\n", 1)[0].decode("utf-8-sig")
     except (OSError, UnicodeDecodeError):
         return False
-    return first.startswith(HEADER_START) and NAMES_FIELD in first.rstrip("\r").split(",")
+    return first.startswith(HEADER_START) and NAMES_FIELD in first.rstrip("\r,").split(",")
 
 
 def _nanoseconds(text: str) -> int:
@@ -72,6 +72,7 @@ def _nanoseconds(text: str) -> int:
 
 
 def _is_number(text: str) -> bool:
+    """Whether float() reads the text (as rostopic's str() of a float, nan and inf included)."""
     try:
         float(text)
     except ValueError:
@@ -101,8 +102,7 @@ def _values(texts: list[str]) -> list[np.ndarray | None]:
 @dataclass(frozen=True)
 class _Layout:
     """What follows a row's m names: ``count`` arrays of m numbers, then ``trailing`` single numbers;
-    q, q̇ and effort are the arrays at ``index`` (a JointState's position, velocity, effort; a
-    SEAJointState's actual_* arrays)."""
+    q, q̇ and effort are the arrays at ``index``."""
 
     index: tuple[int, int, int]
     count: int
@@ -110,14 +110,22 @@ class _Layout:
 
     @classmethod
     def of_header(cls, path: Path, fields: list[str]) -> _Layout:
-        """The layout of the message type whose fields the header names after the joint names."""
-        arrays = list(dict.fromkeys(_ARRAY_FIELD.sub("", f) for f in fields if _ARRAY_FIELD.search(f)))
-        trailing = sum(not _ARRAY_FIELD.search(f) for f in fields)
-        msgtype = SEA_JOINT_STATE if "field.actual_position" in arrays else JOINT_STATE
-        if msgtype == JOINT_STATE and trailing:
-            raise RecordingFileError(f"{path}: not JointState or SEAJointState messages: fields {', '.join(f for f in fields if not _ARRAY_FIELD.search(f))} after the joint names")
-        spec = JOINT_ARRAYS[msgtype]
-        return cls(spec.index, spec.count, trailing)
+        """The layout the header names after the joint names: its arrays in their order (a JointState's
+        position, velocity, effort; a SEAJointState's, whichever version, with actual_*), then its
+        single numbers. A JointState whose first message left an array empty has a header without
+        it: its rows are read in the full layout."""
+        arrays = [f.removeprefix("field.") for f in dict.fromkeys(_ARRAY_FIELD.sub("", f) for f in fields if _ARRAY_FIELD.search(f))]
+        scalars = [f for f in fields if not _ARRAY_FIELD.search(f)]
+        wanted = ("actual_position", "actual_velocity", "actual_effort") if "actual_position" in arrays else ("position", "velocity", "effort")
+        if all(w in arrays for w in wanted):
+            return cls(tuple(arrays.index(w) for w in wanted), len(arrays), len(scalars))
+        if wanted[0] == "position" and not scalars and set(arrays) <= set(wanted):
+            return cls((0, 1, 2), 3, 0)
+        raise RecordingFileError(
+            f"{path}: not JointState or SEAJointState messages: after the joint names the header names arrays "
+            f"{', '.join(arrays) or 'none'} and fields {', '.join(scalars) or 'none'}; expected position, velocity, effort "
+            "(JointState) or actual_position, actual_velocity, actual_effort (SEAJointState)"
+        )
 
     def arrays(self, values: np.ndarray, m: int) -> list[np.ndarray]:
         """q, q̇, effort (n, m) of rows of numbers (n, count·m + trailing)."""
@@ -135,6 +143,7 @@ class _Rows:
         self.pending: dict[tuple[str, ...], tuple[list[int], list[str]]] = {}
 
     def add(self, time_ns: int, stamp_ns: int, names: tuple[str, ...], numbers: str) -> None:
+        """One row: its times (ns), names and the text of its numbers (decoded at the next flush)."""
         index, texts = self.pending.setdefault(names, ([], []))
         index.append(len(self.times_ns))
         texts.append(numbers)
@@ -173,7 +182,7 @@ def _split_names(rest: str, previous: tuple[str, ...]) -> tuple[tuple[str, ...],
     return tuple(fields[:m]), ",".join(fields[m:])
 
 
-def read_rostopic_table(path: str | os.PathLike[str], note: Callable[[str], None] | None = None) -> TopicData:
+def _topic_data(path: str | os.PathLike[str], note: Callable[[str], None] | None = None) -> TopicData:
     """The joint-state messages of a ``rostopic echo -p`` table, as a bag topic's decoded messages.
 
     Read in chunks of CHUNK_ROWS rows (an hour at 100 Hz is 0.5 GB of text). Rows whose time or
@@ -184,16 +193,18 @@ def read_rostopic_table(path: str | os.PathLike[str], note: Callable[[str], None
     unreadable = 0
     names: tuple[str, ...] = ()
     try:
-        with open(path, encoding="utf-8") as f:
-            first = f.readline().rstrip("\r\n")
+        with open(path, encoding="utf-8-sig") as f:
+            first = f.readline().rstrip("\r\n,")
             header = first.split(",")
             if not first.startswith(HEADER_START) or NAMES_FIELD not in header:
-                raise RecordingFileError(f"{path}: not a table of rostopic echo -p joint states (its header must start {HEADER_START!r} and name {NAMES_FIELD})")
+                raise RecordingFileError(
+                    f"{path}: not a table of rostopic echo -p joint states (its header must start {HEADER_START!r} and name {NAMES_FIELD})"
+                )
             names_at = header.index(NAMES_FIELD)
             stamp_at = header.index(STAMP_FIELD) if STAMP_FIELD in header[:names_at] else None
             rows = _Rows(_Layout.of_header(path, [h for h in header[names_at:] if not h.startswith("field.name")]))
             for line in f:
-                line = line.rstrip("\r\n")
+                line = line.rstrip("\r\n,")  # a spreadsheet's re-save may end rows with a comma
                 if not line.strip():
                     continue
                 fields = line.split(",", names_at)
@@ -217,15 +228,20 @@ def read_rostopic_table(path: str | os.PathLike[str], note: Callable[[str], None
     if not rows.times_ns:
         raise RecordingFileError(f"{path}: no messages under the header line" + f" ({unreadable} rows without a time in ns)" * bool(unreadable))
     if unreadable and note is not None:
-        note(f"WARNING: {path}: {unreadable} of {unreadable + len(rows.times_ns)} rows skipped: their time or header stamp is not a time in ns, or they end before the joint names")
+        note(
+            f"WARNING: {path}: {unreadable} of {unreadable + len(rows.times_ns)} rows skipped: their time or header stamp "
+            "is not a time in ns, or they end before the joint names"
+        )
     return TopicData("rostopic table", np.array(rows.times_ns, dtype=np.int64), rows.blocks)
 
 
-def read_rostopic_recording(path: str | os.PathLike[str], *, arm: str | None = None, note: Callable[[str], None] | None = None) -> Recording:
+def read_rostopic_recording(
+    path: str | os.PathLike[str], *, arm: str | None = None, note: Callable[[str], None] | None = None
+) -> Recording:
     """One arm's recording from a ``rostopic echo -p`` table of joint states (module docstring).
 
     Stamps are the header stamps (the time column when every header stamp is zero); arm: "right"
     or "left", None to detect it as for a bag.
     """
     path = Path(path)
-    return joint_state_recording(path, read_rostopic_table(path, note), arm=arm, note=note, where="in this table")
+    return joint_state_recording(path, _topic_data(path, note), arm=arm, note=note, where="in this table")

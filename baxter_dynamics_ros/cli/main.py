@@ -92,6 +92,9 @@ def signals_deferred() -> Iterator[None]:
     _deferring = True
     try:
         yield
+    except Exception:
+        if _received is None:
+            raise  # an error of the block's own; with a signal held, the signal is what stops the command
     finally:
         _deferring = False
     if _received is not None:

@@ -177,7 +177,7 @@ def _started_client(stack: ExitStack, address: str, jobs: int, scratch: str | No
             with signals_deferred():  # the nannies spawn the workers; stopped once they are up, with the stack
                 cluster = stack.enter_context(local_cluster(jobs, scratch))
                 client = stack.enter_context(Client(cluster))
-                client.run(one_thread)
+            client.run(one_thread)
         else:
             stack.enter_context(dask.config.set(settings))
             _probe(address)

@@ -32,6 +32,7 @@ __all__ = [
     "require_activity",
     "require_length",
     "require_total_span",
+    "summed_range_rad",
 ]
 
 #: An arm moves in a recording when one of its joint angles spans at least this much, rad (0.57°:
@@ -56,6 +57,16 @@ GAP_PERIODS = 1.5
 GAP_JITTER_SDS = 6.0
 #: The least data a fit takes in all (the diagnosis' training recordings, a calibration's), s.
 MIN_FIT_S = 10.0
+
+
+def summed_range_rad(q: np.ndarray) -> float:
+    """Summed range (max − min) of each joint's angle over its finite samples, rad; q (N, m) rad.
+    A joint without a finite sample adds 0 (one NaN in a dump does not decide which arm moves)."""
+    q = np.where(np.isfinite(q), q, np.nan)
+    seen = ~np.all(np.isnan(q), axis=0)
+    if not seen.any():
+        return 0.0
+    return float(np.sum(np.nanmax(q[:, seen], axis=0) - np.nanmin(q[:, seen], axis=0)))
 
 
 def detect_arm(names: Sequence[str], q_range_rad: dict[str, float] | None = None) -> str:

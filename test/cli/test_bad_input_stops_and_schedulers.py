@@ -331,11 +331,17 @@ from baxter_dynamics_ros.cli import main as cli
 hold = types.ModuleType("hold")
 hold.add_arguments = lambda parser: None
 def run(args):
-    with cli.signals_deferred():
-        for _ in range({times}):
-            os.kill(os.getpid(), signal.{signal})
-            time.sleep(0.3)
-        print("block ended", flush=True)
+    try:
+        with cli.signals_deferred():
+            for _ in range({times}):
+                os.kill(os.getpid(), signal.{signal})
+                time.sleep(0.3)
+            print("block ended", flush=True)
+            if {fail}:
+                raise ValueError("an error of the block's own")
+    except KeyboardInterrupt:
+        print("unwound", flush=True)
+        raise
     print("after the block", flush=True)
     return 0
 hold.run = run
@@ -345,13 +351,16 @@ sys.exit(cli.main(["hold"]))
 """
 
 
-@pytest.mark.parametrize("times", [1, 2, 3])
+@pytest.mark.parametrize("times, fail", [(1, False), (2, False), (1, True)])
 @pytest.mark.parametrize("name, line, status", [("SIGTERM", "ERROR: terminated (SIGTERM)", 143), ("SIGINT", "ERROR: interrupted", 130)])
-def test_a_signal_while_workers_are_spawned_is_acted_on_when_they_are(tmp_path: Path, name: str, line: str, status: int, times: int) -> None:
+def test_a_signal_while_workers_are_spawned_is_acted_on_when_they_are(
+    tmp_path: Path, name: str, line: str, status: int, times: int, fail: bool
+) -> None:
     """Stopped in the middle of a spawn, a new worker found its start-up pipe closed and printed
     "EOFError: Ran out of input" after the ERROR line (seen in a full run of this suite, --jobs 2
-    --scheduler local); the spawning block now ends first, then the command unwinds as usual. A
-    second signal does not wait for the block (one that hangs can still be stopped); a third changes nothing."""
-    done = subprocess.run([sys.executable, "-c", _HOLDING_COMMAND.format(signal=name, times=times)], cwd=REPO, capture_output=True,
-                          text=True, timeout=60, env=environment(tmp_path / "tmp"))  # fmt: skip
-    assert (done.returncode, done.stdout, done.stderr) == (status, "block ended\n" * (times == 1), line + "\n")
+    --scheduler local); the spawning block now ends first, then the command unwinds as on any
+    signal (KeyboardInterrupt, also when the block ended in an error of its own). A second signal
+    does not wait for the block (one that hangs can still be stopped)."""
+    script = _HOLDING_COMMAND.format(signal=name, times=times, fail=fail)
+    done = subprocess.run([sys.executable, "-c", script], cwd=REPO, capture_output=True, text=True, timeout=60, env=environment(tmp_path / "tmp"))
+    assert (done.returncode, done.stdout, done.stderr) == (status, "block ended\n" * (times == 1) + "unwound\n", line + "\n")

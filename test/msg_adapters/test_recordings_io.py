@@ -25,7 +25,7 @@ from recorded_bags import (
 )
 
 from baxter_dynamics_ros.core.joints import arm_joint_names
-from baxter_dynamics_ros.core.recording import Recording, detect_arm
+from baxter_dynamics_ros.core.recording import Recording, detect_arm, summed_range_rad
 from baxter_dynamics_ros.errors import OutputError, RecordingError, RecordingFileError
 from msg_adapters import bag_io
 from msg_adapters.bag_io import read_bag_recording, read_joint_state_messages
@@ -413,3 +413,11 @@ def test_arm_detection_needs_a_choice_when_both_arms_move_alike() -> None:
     assert detect_arm(both, {"right": 0.1, "left": 2.0}) == "left"
     with pytest.raises(RecordingError, match="choose one with --arm"):
         detect_arm(both, {"right": 1.0, "left": 1.0})
+
+
+def test_an_arm_range_counts_finite_angles_only() -> None:
+    """One NaN or inf in the moving arm's angles made its summed range NaN or inf (and then the
+    other arm, or a tie, was taken): each joint's range is over its finite samples."""
+    q = np.array([[0.0, 1.0, np.nan], [0.5, np.inf, np.nan], [0.25, 2.0, np.nan]])
+    assert summed_range_rad(q) == 0.5 + 1.0
+    assert summed_range_rad(np.full((3, 2), np.nan)) == 0.0 and summed_range_rad(np.zeros((0, 7))) == 0.0

@@ -144,20 +144,30 @@ def test_rows_without_a_time_are_skipped_and_counted_on_their_own(tmp_path: Path
     assert notes == [f"WARNING: {path}: 3 of 41 rows skipped: their time or header stamp is not a time in ns, or they end before the joint names"]
 
 
-SEA_ARRAYS = ("commanded_position", "commanded_velocity", "commanded_effort", "actual_position", "actual_velocity", "actual_effort",
-              "gravity_model_effort", "hysteresis_model_effort", "crosstalk_model_effort")  # fmt: skip
+#: baxter_core_msgs/SEAJointState's arrays: baxter_common's definition, and a later one with 11.
+SEA_ARRAYS = {
+    9: ("commanded_position", "commanded_velocity", "commanded_effort", "actual_position", "actual_velocity", "actual_effort",
+        "gravity_model_effort", "hysteresis_model_effort", "crosstalk_model_effort"),
+    11: ("commanded_position", "commanded_velocity", "commanded_acceleration", "commanded_effort", "actual_position", "actual_velocity",
+         "actual_effort", "gravity_model_effort", "gravity_only", "hysteresis_model_effort", "crosstalk_model_effort"),
+}  # fmt: skip
 
 
-def test_sea_joint_states_are_read_from_their_actual_arrays(tmp_path: Path) -> None:
+@pytest.mark.parametrize("version", sorted(SEA_ARRAYS))
+def test_sea_joint_states_are_read_from_their_actual_arrays(tmp_path: Path, version: int) -> None:
     """Baxter's /robot/limb/left/gravity_compensation_torques (baxter_core_msgs/SEAJointState): the
-    left arm's 7 joints, nine arrays and hystState; q, q̇, effort are the actual_* arrays."""
+    left arm's 7 joints, its arrays and hystState; q, q̇, effort are the actual_* arrays, found by
+    the header's names in either version of the message."""
     joints = arm_joint_names("left")
     states = joint_states(60, names=joints)
     rng = np.random.default_rng(5)
-    lines = [rostopic_plot_header(joints, SEA_ARRAYS, ("hystState",))]
+    names = SEA_ARRAYS[version]
+    at = [names.index(f"actual_{f}") for f in ("position", "velocity", "effort")]
+    lines = [rostopic_plot_header(joints, names, ("hystState",))]
     for k, t in enumerate(states["stamps_ns"]):
-        arrays = [rng.normal(size=7) for _ in SEA_ARRAYS]
-        arrays[3:6] = [states[f][k] for f in ("position", "velocity", "effort")]
+        arrays = [rng.normal(size=7) for _ in names]
+        for i, f in zip(at, ("position", "velocity", "effort")):
+            arrays[i] = states[f][k]
         lines.append(rostopic_plot_row(int(t), int(t), joints, *arrays, [float(k % 2)]))
     path = tmp_path / "gravity_compensation_torques.csv"
     path.write_text("\n".join(lines) + "\n")
@@ -171,5 +181,56 @@ def test_sea_joint_states_are_read_from_their_actual_arrays(tmp_path: Path) -> N
 def test_a_table_of_another_message_type_is_refused_naming_its_fields(tmp_path: Path) -> None:
     path = tmp_path / "other.csv"
     path.write_text(rostopic_plot_header(["a"], ("data",), ("count",)) + "\n1,0,1,,a,0.5,3\n")
-    with pytest.raises(RecordingFileError, match=r"not JointState or SEAJointState messages: fields field.count after the joint names"):
+    with pytest.raises(RecordingFileError, match=r"not JointState or SEAJointState messages: after the joint names the header names arrays data and fields field.count;"):
+        read_recording(path, note=None)
+
+
+#: A dump as rostopic (Python 2) prints it, typed out: the first message a gripper's (the header
+#: names two joints), Python 2's str() of a float (12 significant digits), a BOM and a trailing
+#: comma from a spreadsheet's re-save, Windows line ends.
+TYPED_DUMP = (
+    "\ufeff%time,field.header.seq,field.header.stamp,field.header.frame_id,field.name0,field.name1,field.position0,field.position1,"
+    "field.velocity0,field.velocity1,field.effort0,field.effort1,\r\n"
+    "1400000000000000000,1,1400000000000000000,,l_gripper_l_finger_joint,l_gripper_r_finger_joint,0.0208333333333,-0.0208333333333,"
+    "0.0,0.0,0.0,0.0,\r\n"
+    "1400000000011000000,2,1400000000010000000,,head_pan,left_e0,left_e1,left_s0,left_s1,left_w0,left_w1,left_w2,"
+    "0.0113,0.0460194236,1.98881314,-0.150721358811,-0.999534,0.01,0.9,-0.0141,0.0,0.1,0.2,0.3,0.4,0.5,0.6,0.7,"
+    "0.0,0.1,1.2,-1.1,-20.2658,0.0,0.3,-0.0125,\r\n"
+    "1400000000021000000,3,1400000000020000000,,head_pan,left_e0,left_e1,left_s0,left_s1,left_w0,left_w1,left_w2,"
+    "0.0113,0.0470194236,1.99881314,-0.149721358811,-0.989534,0.02,0.91,-0.0131,0.0,0.1,0.2,0.3,0.4,0.5,0.6,0.7,"
+    "0.0,0.2,1.3,-1.2,-20.3658,0.1,0.4,-0.0135,\r\n"
+)
+
+
+def test_a_dump_typed_out_as_rostopic_prints_it(tmp_path: Path) -> None:
+    path = tmp_path / "typed.csv"
+    path.write_bytes(TYPED_DUMP.encode("utf-8"))
+    assert is_rostopic_table(path)
+    notes: list[str] = []
+    rec = read_recording(path, note=notes.append)
+    assert rec.side == "left" and rec.joint_names == tuple(f"left_{j}" for j in ("s0", "s1", "e0", "e1", "w0", "w1", "w2"))
+    np.testing.assert_array_equal(rec.stamps_ns, [1400000000010000000, 1400000000020000000])
+    np.testing.assert_array_equal(rec.q, [[-0.150721358811, -0.999534, 0.0460194236, 1.98881314, 0.01, 0.9, -0.0141],
+                                          [-0.149721358811, -0.989534, 0.0470194236, 1.99881314, 0.02, 0.91, -0.0131]])  # fmt: skip
+    np.testing.assert_array_equal(rec.qd, [[0.3, 0.4, 0.1, 0.2, 0.5, 0.6, 0.7]] * 2)
+    np.testing.assert_array_equal(rec.effort, [[-1.1, -20.2658, 0.1, 1.2, 0.0, 0.3, -0.0125], [-1.2, -20.3658, 0.2, 1.3, 0.1, 0.4, -0.0135]])
+    assert notes == [f"WARNING: {path}: 1 of 3 messages in this table skipped as malformed (1 {SkipReason.MISSING_JOINT.value})"]
+
+
+def test_a_nan_does_not_decide_which_arm_moves(tmp_path: Path) -> None:
+    """One NaN in the moving (right) arm's angles made its range NaN, and the left arm was taken."""
+    states = joint_states(N)
+    states["position"][17, BAXTER_JOINTS.index("right_s1")] = np.nan
+    rec = read_recording(write_rostopic_table(tmp_path / "nan.csv", states), note=None)
+    assert rec.side == "right" and len(rec) == N - 1
+
+
+def test_when_no_row_is_a_whole_sample_the_error_says_so(tmp_path: Path) -> None:
+    states = joint_states(20)
+    lines = [rostopic_plot_header(BAXTER_JOINTS, ("position", "velocity"))]
+    for k, t in enumerate(states["stamps_ns"]):
+        lines.append(rostopic_plot_row(int(t), int(t), BAXTER_JOINTS, states["position"][k], states["velocity"][k]))
+    path = tmp_path / "no_effort.csv"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(RecordingFileError, match=r"no message in this table has position, velocity and effort, one entry per name \(20 messages; joint names found: head_nod"):
         read_recording(path, note=None)
