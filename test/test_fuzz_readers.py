@@ -275,3 +275,19 @@ def test_table_reader_on_parquet_files_of_any_column_types() -> None:
         _read_any(_write("random.parquet", data), *option)
 
     check()
+
+
+def test_rostopic_reader_on_random_rows_under_its_header() -> None:
+    """Random bytes or text never start with rostopic's header: here every file does, then rows of
+    random fields (numbers, names, empty), random lines, or random bytes."""
+    header = _rostopic_table().splitlines()[0]
+    names = st.sampled_from([*BAXTER_JOINTS, "l_gripper_l_finger_joint", "", "base"])
+    row = st.lists(tokens | names, max_size=60).map(",".join)
+    body = st.lists(row | st.text(max_size=40), max_size=12).map("\n".join).map(str.encode) | st.binary(max_size=300)
+
+    @FUZZ
+    @given(body, options)
+    def check(data: bytes, option) -> None:
+        _read_any(_write("rostopic.csv", header.encode() + b"\n" + data), *option)
+
+    check()
