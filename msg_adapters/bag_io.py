@@ -193,10 +193,9 @@ def joint_state_recording(
     """
     complete = [b for b in data.blocks if b.position is not None and b.velocity is not None and b.effort is not None]
     if not complete:
-        seen = sorted({name for b in data.blocks for name in b.names})
         raise RecordingFileError(
             f"{path}: no message {where} has position, velocity and effort, one entry per name"
-            f" ({sum(len(b.index) for b in data.blocks)} messages; joint names found: {', '.join(seen) or 'none'})"
+            f" ({sum(len(b.index) for b in data.blocks)} messages; joint names found: {_names_found(data.blocks)})"
         )
     if arm is None:
         names = {name for b in complete for name in b.names}
@@ -204,10 +203,9 @@ def joint_state_recording(
     joints = arm_joint_names(arm)
     chosen = [b for b in complete if set(joints) <= set(b.names)]
     if not chosen:
-        seen = sorted({name for b in data.blocks for name in b.names})
         raise RecordingFileError(
             f"{path}: no message {where} has position, velocity and effort of all 7 {arm} arm joints "
-            f"({', '.join(joints)}); joint names found: {', '.join(seen) or 'none'}"
+            f"({', '.join(joints)}); joint names found: {_names_found(data.blocks)}"
         )
     index = np.concatenate([b.index for b in chosen])
     order = np.argsort(index, kind="stable")
@@ -225,6 +223,11 @@ def joint_state_recording(
     others = {side: _other_arm(complete, side) for side in ARM_SIDES if side != arm}
     require_activity(arm, recording.q, recording.effort, {side: o for side, o in others.items() if o is not None})
     return recording
+
+
+def _names_found(blocks: list[JointStateBlock]) -> str:
+    """Every joint name the messages give, sorted, for an error message ("none" if none)."""
+    return ", ".join(sorted({name for b in blocks for name in b.names})) or "none"
 
 
 def _malformed(blocks: list[JointStateBlock], joints: Sequence[str], where: str) -> str | None:

@@ -63,9 +63,9 @@ def read_recording(
     """
     path = Path(path)
     try:
-        if path.suffix in TABLE_SUFFIXES and is_rostopic_table(path):
-            return read_rostopic_recording(path, arm=arm, note=note)
         if path.suffix in TABLE_SUFFIXES:
+            if is_rostopic_table(path):
+                return read_rostopic_recording(path, arm=arm, note=note)
             return read_table_recording(path, arm=arm, rate_hz=rate_hz, note=note)
         return read_bag_recording(path, topic=topic, arm=arm, progress=progress, note=note)
     except RecordingError as err:

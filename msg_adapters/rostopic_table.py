@@ -56,7 +56,13 @@ def is_rostopic_table(path: str | os.PathLike[str]) -> bool:
             first = f.read(SNIFF_BYTES).split(b"\n", 1)[0].decode("utf-8-sig")
     except (OSError, UnicodeDecodeError):
         return False
-    return first.startswith(HEADER_START) and NAMES_FIELD in first.rstrip("\r,").split(",")
+    return _header_fields(first) is not None
+
+
+def _header_fields(line: str) -> list[str] | None:
+    """The header's fields (a trailing comma or line end dropped), None if the line is no rostopic header."""
+    fields = line.rstrip("\r\n,").split(",")
+    return fields if line.startswith(HEADER_START) and NAMES_FIELD in fields else None
 
 
 def _nanoseconds(text: str) -> int:
@@ -194,9 +200,8 @@ def _topic_data(path: str | os.PathLike[str], note: Callable[[str], None] | None
     names: tuple[str, ...] = ()
     try:
         with open(path, encoding="utf-8-sig") as f:
-            first = f.readline().rstrip("\r\n,")
-            header = first.split(",")
-            if not first.startswith(HEADER_START) or NAMES_FIELD not in header:
+            header = _header_fields(f.readline())
+            if header is None:
                 raise RecordingFileError(
                     f"{path}: not a table of rostopic echo -p joint states (its header must start {HEADER_START!r} and name {NAMES_FIELD})"
                 )
