@@ -17,7 +17,9 @@ arm (``ang_s0``, ``position_s0``): they are read for the arm given (``--arm``), 
 Without a time column, samples are evenly spaced at the rate given (``--rate-hz``) or estimated from
 the data (:func:`~baxter_dynamics_ros.core.recording.estimate_rate_hz`: least squares of Δq on q̇ Δt);
 without a given rate the estimate is used and said, and a given rate more than
-:data:`RATE_TOLERANCE` away from the estimate is refused.
+:data:`RATE_TOLERANCE` away from the estimate is refused. Where the positions jump farther than a
+joint can move in one sample (:func:`~baxter_dynamics_ros.core.recording.jumps`: trajectories laid
+end to end in one table), the stamps get a gap, which cuts the recording there, and a note says so.
 
 Rows no real Baxter gives (:mod:`baxter_dynamics_ros.core.plausibility`: NaN, a position beyond
 the limits, a speed or effort beyond 3 × the limits) are left out and counted in one warning line;
@@ -38,10 +40,12 @@ import numpy as np
 
 from baxter_dynamics_ros.core.joints import ARM_SIDES, JOINT_SUFFIXES, arm_joint_names
 from baxter_dynamics_ros.core.plausibility import package_bounds, plausible_recording, screen_samples
-from baxter_dynamics_ros.core.recording import OtherArm, ProcessedRecording, Recording, detect_arm, estimate_rate_hz, require_activity, summed_range_rad
+from baxter_dynamics_ros.core.recording import (
+    JUMP_GAP_PERIODS, OtherArm, ProcessedRecording, Recording, detect_arm, estimate_rate_hz, jumps, require_activity, summed_range_rad,
+)  # fmt: skip
 from baxter_dynamics_ros.errors import RecordingFileError
 
-__all__ = ["RATE_TOLERANCE", "Note", "joint_state_columns", "read_table_recording", "write_processed_table", "write_table"]
+__all__ = ["RATE_TOLERANCE", "Note", "columns_recording", "joint_state_columns", "read_table_recording", "write_processed_table", "write_table"]
 
 #: Largest relative difference between a given sample rate and the estimated one that is accepted.
 RATE_TOLERANCE = 0.10
@@ -140,10 +144,12 @@ def _other_arms(columns: dict[str, np.ndarray], prefixes: tuple[str, ...], side:
 
 
 def _sample_times_ns(
-    path: Path, columns: dict[str, np.ndarray], q: np.ndarray, qd: np.ndarray, rate_hz: float | None, note: Note | None
+    path: Path, columns: dict[str, np.ndarray], q: np.ndarray, qd: np.ndarray, rate_hz: float | None, note: Note | None, speed_bound: np.ndarray
 ) -> np.ndarray:
     """(N,) stamps: the time column, or samples 1 / rate evenly apart, the rate checked against (or,
-    without ``rate_hz``, taken from) :func:`~baxter_dynamics_ros.core.recording.estimate_rate_hz`."""
+    without ``rate_hz``, taken from) :func:`~baxter_dynamics_ros.core.recording.estimate_rate_hz`,
+    and a gap at each jump of the positions (:func:`~baxter_dynamics_ros.core.recording.jumps`,
+    beyond ``speed_bound`` (7,) rad/s), said through ``note``."""
     if "stamp_ns" in columns:
         return np.asarray(columns["stamp_ns"], dtype=np.int64)
     if "time_s" in columns:
@@ -154,6 +160,9 @@ def _sample_times_ns(
     if rate_hz is not None and not (np.isfinite(rate_hz) and rate_hz > 0):
         raise RecordingFileError(f"{path}: has no time column and --rate-hz must be a positive number of Hz, got {rate_hz}")
     estimate = estimate_rate_hz(q, qd)
+    if estimate is not None and rate_hz is None:  # the rate of the motion, without the jumps' steps
+        apart = jumps(q, qd, 1.0 / estimate, speed_bound) + 1
+        estimate = estimate_rate_hz(np.insert(q, apart, np.nan, axis=0), np.insert(qd, apart, np.nan, axis=0)) if apart.size else estimate
     if estimate is None:
         if rate_hz is None:
             raise RecordingFileError(
@@ -169,7 +178,16 @@ def _sample_times_ns(
             f"{path}: --rate-hz {rate_hz:g} disagrees with the sample rate estimated from position and velocity, "
             f"{estimate:.2f} Hz (by more than {RATE_TOLERANCE:.0%}); check the rate, or leave --rate-hz out to use the estimate"
         )
-    return np.round(np.arange(len(q)) * (1e9 / rate_hz)).astype(np.int64)
+    steps = np.ones(len(q))
+    steps[0] = 0.0
+    cut = jumps(q, qd, 1.0 / rate_hz, speed_bound)
+    steps[cut + 1] = JUMP_GAP_PERIODS
+    if cut.size and note is not None:
+        note(
+            f"{path}: the positions jump at {cut.size} step(s) (first after sample {cut[0]}) farther than the joints "
+            f"can move in a sample: trajectories laid end to end, taken apart there (gaps of unknown length, {JUMP_GAP_PERIODS} samples in the stamps)"
+        )
+    return np.round(np.cumsum(steps) * (1e9 / rate_hz)).astype(np.int64)
 
 
 def read_table_recording(
@@ -183,7 +201,14 @@ def read_table_recording(
     effort (:func:`~baxter_dynamics_ros.core.recording.require_activity`).
     """
     path = Path(path)
-    columns = _read_columns(path)
+    return columns_recording(path, _read_columns(path), arm=arm, rate_hz=rate_hz, note=note)
+
+
+def columns_recording(
+    path: str | os.PathLike[str], columns: dict[str, np.ndarray], *, arm: str | None = None, rate_hz: float | None = None, note: Note | None = None
+) -> Recording:
+    """The recording of one arm from a table's columns (name -> (N,) values; either layout), as
+    :func:`read_table_recording` reads it; path names the source in messages."""
     prefixes = next((p for p in LAYOUTS.values() if any(c.startswith(p[0]) for c in columns)), None)
     if prefixes is None:
         raise RecordingFileError(
@@ -217,7 +242,7 @@ def read_table_recording(
     keep = screening.keep
     require_activity(arm, q[keep], effort[keep], _other_arms(columns, prefixes, arm))
     gone = np.where(keep[:, None], 0.0, np.nan)  # implausible rows left out of the rate's estimate
-    stamps_ns = _sample_times_ns(path, columns, q + gone, qd + gone, rate_hz, note)
+    stamps_ns = _sample_times_ns(path, columns, q + gone, qd + gone, rate_hz, note, package_bounds(arm)[3])
     return plausible_recording(str(path), arm, stamps_ns, q, qd, effort, note, screening)
 
 

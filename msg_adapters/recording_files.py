@@ -2,7 +2,8 @@
 
 Inputs: ``.csv``, ``.txt``, ``.parquet`` are tables (:mod:`msg_adapters.csv_io`; joint states
 dumped by ``rostopic echo -p``, recognised by their header: :mod:`msg_adapters.rostopic_table`);
-anything else is a bag (:mod:`msg_adapters.bag_io`: ``.bag``, a ROS 2 bag directory, ``.mcap``,
+``.mat`` are MATLAB files of one or more recordings, ``<file>.mat:<part>`` naming one
+(:mod:`msg_adapters.mat_files`); anything else is a bag (:mod:`msg_adapters.bag_io`: ``.bag``, a ROS 2 bag directory, ``.mcap``,
 ``.db3``).
 
 Outputs, by the path's extension:
@@ -30,13 +31,19 @@ from baxter_dynamics_ros.errors import RecordingError, RecordingFileError
 
 from .bag_io import DEFAULT_TOPIC, Progress, read_bag_recording, write_joint_state_bag, write_processed_bag
 from .csv_io import Note, joint_state_columns, read_table_recording, write_processed_table, write_table
+from .mat_files import MAT_SUFFIX, mat_parts, read_mat_recording, split_part
 from .rostopic_table import is_rostopic_table, read_rostopic_recording
 
-__all__ = ["BAG_SUFFIXES", "OUTPUT_FORMATS", "TABLE_SUFFIXES", "is_bag_folder", "check_output", "print_to_stderr", "read_recording", "write_joint_states", "write_processed"]
+__all__ = [
+    "BAG_SUFFIXES", "INPUT_SUFFIXES", "OUTPUT_FORMATS", "TABLE_SUFFIXES", "is_bag_folder", "check_output", "print_to_stderr", "read_recording",
+    "recordings_in", "source_file", "write_joint_states", "write_processed",
+]  # fmt: skip
 
 TABLE_SUFFIXES = (".csv", ".txt", ".parquet")
 #: Bag files the readers know (a ROS 2 bag folder, holding metadata.yaml, is read too).
 BAG_SUFFIXES = (".bag", ".mcap", ".db3")
+#: Every file an input may be (a ROS 2 bag folder besides).
+INPUT_SUFFIXES = (*BAG_SUFFIXES, *TABLE_SUFFIXES, MAT_SUFFIX)
 #: Output extension -> format.
 OUTPUT_FORMATS = {".mcap": "mcap", ".csv": "csv", ".parquet": "parquet"}
 
@@ -61,15 +68,32 @@ def read_recording(
     said through ``note``; see :mod:`msg_adapters.csv_io`). Raises RecordingFileError naming the
     path for anything wrong with the file's contents.
     """
-    path = Path(path)
+    path, part = split_part(path)
     try:
+        if path.suffix == MAT_SUFFIX:
+            return read_mat_recording(path, part, arm=arm, rate_hz=rate_hz, note=note)
         if path.suffix in TABLE_SUFFIXES:
             if is_rostopic_table(path):
                 return read_rostopic_recording(path, arm=arm, note=note)
             return read_table_recording(path, arm=arm, rate_hz=rate_hz, note=note)
         return read_bag_recording(path, topic=topic, arm=arm, progress=progress, note=note)
     except RecordingError as err:
-        raise RecordingFileError(f"{path}: {err}") from err
+        raise RecordingFileError(f"{path if part is None else f'{path}:{part}'}: {err}") from err
+
+
+def source_file(path: str | os.PathLike[str]) -> Path:
+    """The file or folder on disk that an input is read from: the MATLAB file of ``<file>.mat:<part>``."""
+    return split_part(path)[0]
+
+
+def recordings_in(path: str | os.PathLike[str]) -> list[Path]:
+    """The recordings an input file stands for: a MATLAB file of several recordings, each as
+    ``<file>.mat:<part>``; any other path, itself (RecordingFileError for an unreadable MATLAB file)."""
+    path = Path(path)
+    if path.suffix != MAT_SUFFIX or not path.is_file():
+        return [path]
+    parts = mat_parts(path)
+    return [path] if len(parts) == 1 else [Path(f"{path}:{part}") for part in parts]
 
 
 def is_bag_folder(path: str | os.PathLike[str]) -> bool:

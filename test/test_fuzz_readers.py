@@ -291,3 +291,60 @@ def test_rostopic_reader_on_random_rows_under_its_header() -> None:
         _read_any(_write("rostopic.csv", header.encode() + b"\n" + data), *option)
 
     check()
+
+
+def _mat_file() -> bytes:
+    """A MATLAB file of a forward-dynamics trajectory and an inverse-dynamics pair (msg_adapters.mat_files)."""
+    import io
+
+    from scipy.io import savemat
+
+    states = joint_states(40)
+    q, qd, tau = (states[k][:, :7] for k in ("position", "velocity", "effort"))
+    buffer = io.BytesIO()
+    savemat(buffer, {"traj1": np.hstack([q[:-1], qd[:-1], tau[:-1], q[1:], qd[1:]]), "X_train": np.hstack([q, qd, qd]), "Y_train": tau})
+    return buffer.getvalue()
+
+
+@st.composite
+def matrices(draw) -> dict:
+    """Variables of the layouts' names and shapes (and others), of any values: numbers, NaN, ±inf, text."""
+    names = draw(st.lists(st.sampled_from(["traj1", "X", "Y", "X_train", "Y_train", "sarcos", "note"]), unique=True, max_size=4))
+    out = {}
+    for name in names:
+        rows = draw(st.integers(0, 6))
+        cols = draw(st.sampled_from([0, 7, 21, 28, 35, 3]))
+        kind = draw(st.sampled_from(["float", "int", "text"]))
+        if kind == "text":
+            out[name] = draw(st.text(max_size=6))
+        else:
+            cells = st.floats(allow_nan=True, allow_infinity=True) if kind == "float" else st.integers(-(2**31), 2**31 - 1)
+            out[name] = np.array(draw(st.lists(cells, min_size=rows * cols, max_size=rows * cols)), dtype=float if kind == "float" else np.int32).reshape(rows, cols)
+    return out
+
+
+def test_mat_reader_on_random_bytes_changed_files_and_any_variables() -> None:
+    """Random bytes; a real MATLAB file with bytes changed or cut; files of variables of any value, each
+    read whole and part by part."""
+    import io
+
+    from scipy.io import savemat
+
+    source = _mat_file()
+    assert read_recording(f"{_write('real.mat', source)}:traj1", arm="left", note=None).side == "left"
+    changed = st.tuples(st.integers(0, len(source) - 1), st.binary(min_size=1, max_size=8)).map(lambda c: source[: c[0]] + c[1] + source[c[0] + len(c[1]) :])
+    cut = st.integers(0, len(source) - 1).map(lambda n: source[:n])
+
+    def saved(variables: dict) -> bytes:
+        buffer = io.BytesIO()
+        savemat(buffer, variables)
+        return buffer.getvalue()
+
+    @FUZZ
+    @given(st.binary(max_size=600) | changed | cut | matrices().map(saved), options)
+    def check(data: bytes, option) -> None:
+        path = _write("fuzzed.mat", data)
+        for part in ("", ":traj1", ":train", ":XY", ":sarcos"):
+            _read_any(Path(f"{path}{part}"), *option)
+
+    check()

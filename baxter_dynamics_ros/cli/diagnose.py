@@ -126,10 +126,14 @@ def _refuse_repeats(items: list[tuple[str, str, Hashable]], same: str) -> None:
         seen[key] = (option, label)
 
 
-def _file_id(path: Path) -> tuple[int, int]:
-    """(device, inode) of a file or bag folder: equal for two names of one file."""
-    st = path.stat()
-    return st.st_dev, st.st_ino
+def _file_id(path: Path) -> tuple[int, int, str | None]:
+    """(device, inode, part) of a file or bag folder (part: of a MATLAB file, else None): equal for
+    two names of one recording."""
+    from msg_adapters.mat_files import split_part
+
+    file, part = split_part(path)
+    st = file.stat()
+    return st.st_dev, st.st_ino, part
 
 
 def _split_last_quarter(source, samples: int, span_s: float):

@@ -1,6 +1,8 @@
 """The commands' input arguments as recordings: files, ROS 2 bag folders, folders of them, globs.
 
-One expansion for ``process``, ``diagnose`` and ``calibrate``: a file stays itself; a ROS 2 bag
+One expansion for ``process``, ``diagnose`` and ``calibrate``: a file stays itself, but a MATLAB
+file of several recordings stands for each (``<file>.mat:<part>``, :mod:`msg_adapters.mat_files`),
+and ``<file>.mat:<part>`` names one; a ROS 2 bag
 folder (it holds ``metadata.yaml``) is one recording; any other folder stands for the recordings
 directly in it (bag files, bag folders and tables, by name; not its subfolders' contents: a folder
 of folders of bags would mix unrelated sessions by accident); a pattern with ``*``, ``?`` or ``[``
@@ -36,28 +38,25 @@ def expand_inputs(paths: Sequence[Path]) -> list[Path]:
     return out
 
 
-def _suffixes() -> tuple[str, ...]:
-    from msg_adapters.recording_files import BAG_SUFFIXES, TABLE_SUFFIXES
-
-    return (*BAG_SUFFIXES, *TABLE_SUFFIXES)
-
-
 def _kinds() -> str:
     from msg_adapters.recording_files import BAG_SUFFIXES, TABLE_SUFFIXES
 
-    return f"bags {', '.join(BAG_SUFFIXES)}, ROS 2 bag folders, tables {', '.join(TABLE_SUFFIXES)}"
+    return f"bags {', '.join(BAG_SUFFIXES)}, ROS 2 bag folders, tables {', '.join(TABLE_SUFFIXES)}, MATLAB files .mat"
 
 
 def _recordings_at(path: Path, *, quiet: bool) -> list[Path]:
     """path itself, or for a folder that is no bag the recordings in it. quiet (a pattern's match):
     [] for a file of another kind or a folder without recordings, instead of path or an error."""
-    from msg_adapters.recording_files import is_bag_folder
+    from msg_adapters.recording_files import INPUT_SUFFIXES, is_bag_folder, recordings_in
 
-    if is_bag_folder(path) or (path.is_file() and (not quiet or path.suffix in _suffixes())):
+    if is_bag_folder(path):
         return [path]
+    if path.is_file():
+        return recordings_in(path) if not quiet or path.suffix in INPUT_SUFFIXES else []
     if not path.is_dir():
         return [] if quiet else [path]
-    found = sorted(p for p in path.iterdir() if (p.is_file() and p.suffix in _suffixes()) or is_bag_folder(p))
+    found = sorted(p for p in path.iterdir() if (p.is_file() and p.suffix in INPUT_SUFFIXES) or is_bag_folder(p))
+    found = [r for p in found for r in recordings_in(p)]
     if not found and not quiet:
         raise RecordingFileError(f"{path}: a folder with no recording in it ({_kinds()}); give files, bag folders or a folder of them")
     return found

@@ -35,15 +35,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Play args.bag; returns 0 (errors raise BaxterDynamicsError)."""
     from msg_adapters.bag_io import DEFAULT_TOPIC, read_joint_state_messages
+    from msg_adapters.mat_files import MAT_SUFFIX, split_part
     from msg_adapters.recording_files import TABLE_SUFFIXES
 
     from ..errors import PlaybackError
 
     if not (args.speed > 0):
         raise PlaybackError(f"--speed must be positive, got {args.speed}")
-    if args.bag.suffix in TABLE_SUFFIXES:
+    if split_part(args.bag)[0].suffix in (*TABLE_SUFFIXES, MAT_SUFFIX):
         raise PlaybackError(
-            f"{args.bag}: play takes bags (.bag, a ROS 2 bag folder, .mcap, .db3), not tables; make one with "
+            f"{args.bag}: play takes bags (.bag, a ROS 2 bag folder, .mcap, .db3), not tables or MATLAB files; make one with "
             f"`baxter-dynamics process {args.bag} --out BAG.mcap` and play it with --topics {DEFAULT_TOPIC}"
         )
     messages = read_joint_state_messages(args.bag, args.topics)

@@ -32,7 +32,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
     parser.add_argument(
         "input", type=Path, nargs="+", metavar="INPUT",
-        help="bag (.bag, ROS 2 folder, .mcap, .db3) or table (.csv, .txt, .parquet); or several, a folder of them, a quoted pattern",
+        help="bag (.bag, ROS 2 folder, .mcap, .db3), table (.csv, .txt, .parquet) or MATLAB file (.mat; FILE.mat:PART for one of its recordings); or several, a folder of them, a quoted pattern",
     )
     parser.add_argument(
         "--out", "-o", type=Path, required=True, metavar="OUTPUT",
@@ -77,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
         show = sys.stderr.isatty() if args.progress is None else args.progress
         print(f"{args.out}: {_process_one(options, (inputs[0], args.out), show)}")
         return 0
-    outputs = [args.out / f"{p.stem if p.suffix else p.name}.{args.format}" for p in inputs]
+    outputs = [args.out / f"{_output_stem(p)}.{args.format}" for p in inputs]
     clash = next((o for k, o in enumerate(outputs) if o in outputs[:k]), None)
     if clash is not None:
         raise OutputError(f"{clash}: two inputs would be written here; give inputs with different names")
@@ -89,6 +89,16 @@ def run(args: argparse.Namespace) -> int:
     for out, what in zip(outputs, done):
         print(f"{out}: {what}")
     return 0
+
+
+def _output_stem(path: Path) -> str:
+    """The name of an input's output in a folder, without extension: the file's stem (a bag
+    folder's name), ``<stem>_<part>`` for a part of a MATLAB file."""
+    from msg_adapters.mat_files import split_part
+
+    file, part = split_part(path)
+    stem = file.stem if file.suffix else file.name
+    return stem if part is None else f"{stem}_{part}"
 
 
 @dataclass(frozen=True)

@@ -61,10 +61,12 @@ class RecordingFile:
     def _scratch_file(self) -> Path:
         """Where this file's decoded arrays go in the scratch folder: named by the path, the
         reader's options and the file's size and modification time (a changed file is decoded anew)."""
-        path = Path(self.path)
+        from msg_adapters.recording_files import source_file
+
+        path = source_file(self.path)
         files = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
         stats = [(str(p), p.stat().st_size, p.stat().st_mtime_ns) for p in files]
-        key = json.dumps([str(path.resolve()), self.topic, self.arm, self.rate_hz, stats])
+        key = json.dumps([str(path.resolve()), self.path, self.topic, self.arm, self.rate_hz, stats])  # self.path: a part of a MATLAB file
         return Path(self.scratch) / f"{hashlib.sha1(key.encode()).hexdigest()[:16]}.npz"
 
 

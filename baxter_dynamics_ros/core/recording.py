@@ -20,6 +20,7 @@ from .joints import ARM_SIDES, JOINTS, arm_joint_names
 __all__ = [
     "GAP_JITTER_SDS",
     "GAP_PERIODS",
+    "JUMP_GAP_PERIODS",
     "MIN_MOTION_RAD",
     "MIN_FIT_S",
     "MIN_RECORDING_S",
@@ -29,6 +30,7 @@ __all__ = [
     "Recording",
     "detect_arm",
     "estimate_rate_hz",
+    "jumps",
     "require_activity",
     "require_length",
     "require_total_span",
@@ -55,6 +57,9 @@ GAP_PERIODS = 1.5
 #: robust standard deviations (1.4826 · MAD) of the steps above the median step: jitter alone then
 #: cuts a recording about once in 10⁶ steps instead of into pieces too short to filter.
 GAP_JITTER_SDS = 6.0
+#: The step given to a jump (:func:`jumps`) in the stamps of samples without times: a gap of this
+#: many sample periods (any length above :data:`GAP_PERIODS` cuts the recording there).
+JUMP_GAP_PERIODS = 10
 #: The least data a fit takes in all (the diagnosis' training recordings, a calibration's), s.
 MIN_FIT_S = 10.0
 
@@ -122,6 +127,20 @@ def estimate_rate_hz(q: np.ndarray, qd: np.ndarray) -> float | None:
     if dq_v / np.sqrt(vv * dd) < MIN_RATE_FIT_CORRELATION:
         return None
     return vv / dq_v
+
+
+def jumps(q: np.ndarray, qd: np.ndarray, period_s: float, speed_bound_rad_s: np.ndarray) -> np.ndarray:
+    """Indices k (M,) of the steps from sample k to k+1 of evenly spaced samples that no motion
+    explains: a joint's Δq differs from the trapezoid rule's Δt (q̇_k + q̇_{k+1}) / 2 by more than
+    its plausible top speed covers in Δt — the join of two trajectories laid end to end.
+
+    q (N, m) rad, qd (N, m) rad/s, period_s Δt, speed_bound_rad_s (m,) the plausible top speeds
+    (:func:`~.plausibility.plausibility_bounds`). Steps with a non-finite value are none.
+    """
+    q = np.asarray(q, dtype=np.float64)
+    qd = np.asarray(qd, dtype=np.float64)
+    unexplained = np.abs(np.diff(q, axis=0) - period_s * 0.5 * (qd[1:] + qd[:-1]))
+    return np.flatnonzero((unexplained > period_s * np.asarray(speed_bound_rad_s)).any(axis=1))
 
 
 class OtherArm(NamedTuple):

@@ -167,7 +167,8 @@ def column_layout() -> ColumnLayout:
     specs.append(("inertial_error", None, "inertial", InertialError(), 70, free))
     specs.append(("armature", None, "joint", Armature(inertia_kgm2=0.0), 1, zero))
     specs.append(("delay", None, "joint", Delay(delay_s=0.0), 1, free))
-    specs.append(("torque_gain", None, "joint", TorqueGain(gain=0.0), 1, free))
+    # TorqueGain's domain, gain > −1 (a sensor that reads nothing, or the opposite, has no gain error)
+    specs.append(("torque_gain", None, "joint", TorqueGain(gain=0.0), 1, float(np.nextafter(-1.0, 0.0))))
     candidates, blocks, start = [], [], 0
     inertial_start = 0
     for name, variant, kind, template, p, low in specs:

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 from synthetic_recordings import COULOMB, VISCOUS, blocks_of, lowpassed_velocity, recording
 
-from baxter_dynamics_ros.core.effects import Payload
+from baxter_dynamics_ros.core.effects import Payload, TorqueGain
+from baxter_dynamics_ros.core.recording import Recording
 from baxter_dynamics_ros.core.log_cholesky import pseudo_from_log_cholesky
 from baxter_dynamics_ros.diagnosis.fit import Fitter, Model, Term
 from baxter_dynamics_ros.diagnosis.statistics import Pool, column_layout, prepare
@@ -85,6 +86,21 @@ def test_dissipation_and_rotor_inertia_stop_at_zero(arm, name: str) -> None:
     assert not below.free.any()
     assert above.free.all()
     np.testing.assert_allclose(above.x, truth, rtol=0.1)
+
+
+def test_a_torque_gain_stops_inside_its_domain(arm) -> None:
+    """A sensor gain g is > −1 (TorqueGain): where the effort is −0.5 τ (g = −1.5) the fit holds g just
+    above −1, not free, and the effect can be made of it; where it is 0.8 τ, g = −0.2 is found."""
+    truth = np.array([-1.5, -0.2, 0.0, 0.0, 0.0, 0.0, 0.0])
+    named = []
+    for s in (61, 62):
+        rec = recording(arm, s)
+        named.append((f"g{s}", Recording(rec.side, rec.joint_names, rec.stamps_ns, rec.q, rec.qd, rec.effort * (1.0 + truth))))
+    layout = column_layout()
+    fit = Fitter(arm, layout, Pool.of(blocks_of(arm, named, CUTOFF_HZ)), np.ones(N), 3.0).fit(Model.of([Term(_index(layout, "torque_gain"), (0, 1))]))
+    assert -1.0 < fit.x[0] < -1.0 + 1e-12 and not fit.free[0]
+    assert fit.free[1] and fit.x[1] == pytest.approx(-0.2, abs=0.01)
+    TorqueGain(gain=[*fit.x, 0.0, 0.0, 0.0, 0.0, 0.0])
 
 
 def _fitted_payload(arm, load: Payload) -> tuple[float, np.ndarray]:

@@ -1,0 +1,171 @@
+"""Recordings in MATLAB files (``.mat``), as robot-learning datasets publish them.
+
+A MATLAB file holds several recordings (trajectories), each a *part* named after its variables:
+``BaxterDirectDynamics.mat:baxtertraj3`` (:func:`split_part`). A file of one part is read as it is;
+of several, the commands take each as one recording (:func:`mat_parts`), or the one named.
+
+Layouts, told apart by the variables' shapes (rows are samples; each block of 7 columns is the arm's
+joints s0, s1, e0, e1, w0, w1, w2; rad, rad/s, N·m; no time column: the sample rate is estimated
+from q and q̇ or given, as for a table without one, :mod:`msg_adapters.csv_io`):
+
+- **forward dynamics**, a matrix of 35 columns ``[q, q̇, τ, q⁺, q̇⁺]`` (a sample, the torque, the
+  next sample; e.g. ``baxtertraj1`` … ``baxtertraj10`` of BaxterDirectDynamics.mat): one part per
+  variable, accepted only where the next state is the following row's (the layout's own check);
+- **inverse dynamics**, ``X<s>`` of 21 columns ``[q, q̇, q̈]`` beside ``Y<s>`` of 7 ``[τ]`` (e.g.
+  ``X_train``/``Y_train`` and ``X_test``/``Y_test`` of BaxterRand.mat): one part per pair, named by
+  ``<s>`` without its leading underscore (``train``), ``XY`` for a bare ``X``/``Y``;
+- a matrix of 28 columns ``[q, q̇, q̈, τ]`` (the SARCOS layout): one part per variable.
+
+The given q̈ is not used (the package estimates its own from q̇). A file names no arm: ``--arm``
+is needed. MATLAB's v7.3 files (HDF5) are refused with what to do; other variables (text, structs,
+matrices of other shapes) are ignored, and a file with no recording names what it holds.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+
+from baxter_dynamics_ros.core.joints import JOINT_SUFFIXES
+from baxter_dynamics_ros.core.recording import Recording
+from baxter_dynamics_ros.errors import RecordingFileError
+
+from .csv_io import Note, columns_recording
+
+__all__ = ["MAT_SUFFIX", "mat_parts", "read_mat_recording", "split_part"]
+
+MAT_SUFFIX = ".mat"
+#: An input naming one part of a MATLAB file: ``<file>.mat:<part>``.
+_PART_ADDRESS = re.compile(r"^(?P<file>.+\.mat):(?P<part>[A-Za-z0-9_]+)$")
+_JOINTS = len(JOINT_SUFFIXES)
+#: columns of a matrix layout -> (what its blocks of 7 columns hold, the index of q̇'s and τ's blocks)
+_MATRIX_LAYOUTS = {5 * _JOINTS: ("[q, q̇, τ, q⁺, q̇⁺]", 1, 2), 4 * _JOINTS: ("[q, q̇, q̈, τ]", 1, 3)}
+
+
+def split_part(path: str | os.PathLike[str]) -> tuple[Path, str | None]:
+    """The file on disk and the part an input names: ``x.mat:traj1`` -> (x.mat, "traj1"); any other
+    path (one that exists as given included) -> (path, None)."""
+    path = Path(path)
+    match = None if path.exists() else _PART_ADDRESS.match(str(path))
+    return (path, None) if match is None else (Path(match["file"]), match["part"])
+
+
+def _contents(path: Path) -> list[tuple[str, tuple[int, ...], str]]:
+    """The variables of the MATLAB file at path: (name, shape, MATLAB class), without their data."""
+    from scipy.io import whosmat
+
+    if not path.is_file():
+        raise RecordingFileError(f"{path}: no such file")
+    try:
+        return [(name, tuple(shape), cls) for name, shape, cls in whosmat(str(path))]
+    except NotImplementedError as err:  # scipy's answer to v7.3
+        raise RecordingFileError(
+            f"{path}: a MATLAB v7.3 file (HDF5), which is not read; save its variables with save(..., '-v7')"
+        ) from err
+    except Exception as err:  # noqa: BLE001 - scipy's errors all mean "not a readable MATLAB file"
+        raise RecordingFileError(f"{path}: not a readable MATLAB file ({err})") from err
+
+
+def _rows_first(shape: tuple[int, ...], columns: int) -> bool | None:
+    """Whether a matrix of ``shape`` holds samples in rows (True), in columns (False: stored
+    transposed), or is not a matrix of ``columns`` columns (None)."""
+    if len(shape) != 2:
+        return None
+    if shape[1] == columns:
+        return True
+    return False if shape[0] == columns else None
+
+
+def _parts(path: Path) -> dict[str, tuple[str, ...]]:
+    """part name -> its variables (one matrix, or the X and Y of a pair), in the file's order."""
+    numeric = {name: shape for name, shape, cls in _contents(path) if cls in ("double", "single")}
+    parts: dict[str, tuple[str, ...]] = {}
+    for name, shape in numeric.items():
+        if name.startswith("X") and _rows_first(shape, 3 * _JOINTS) is not None:
+            y = "Y" + name[1:]
+            if y in numeric and _rows_first(numeric[y], _JOINTS) is not None:
+                parts[name[1:].lstrip("_") or "XY"] = (name, y)
+        elif any(_rows_first(shape, c) is not None for c in _MATRIX_LAYOUTS):
+            parts[name] = (name,)
+    if not parts:
+        held = ", ".join(f"{n} {'×'.join(map(str, s))} {c}" for n, s, c in _contents(path)) or "no variables"
+        raise RecordingFileError(
+            f"{path}: no recording in this MATLAB file (holds {held}); expected matrices of 35 columns "
+            "[q, q̇, τ, q⁺, q̇⁺] or 28 [q, q̇, q̈, τ], or X<s> of 21 columns [q, q̇, q̈] with Y<s> of 7 [τ]"
+        )
+    return parts
+
+
+def mat_parts(path: str | os.PathLike[str]) -> list[str]:
+    """The names of the recordings (parts) in the MATLAB file at path (module docstring)."""
+    return list(_parts(Path(path)))
+
+
+def _matrix(data: dict, name: str, columns: int) -> np.ndarray:
+    """Variable ``name`` of loaded ``data`` as an (N, columns) float64 array, samples in rows."""
+    values = np.asarray(data[name], dtype=np.float64)
+    return values if _rows_first(values.shape, columns) else values.T
+
+
+def _layout_arrays(path: Path, part: str, names: tuple[str, ...], data: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """q, q̇, τ (N, 7) of one part from its loaded variables."""
+    n = _JOINTS
+    if len(names) == 2:
+        x, y = _matrix(data, names[0], 3 * n), _matrix(data, names[1], n)
+        if len(x) != len(y):
+            raise RecordingFileError(f"{path}:{part}: {names[0]} has {len(x)} samples but {names[1]} {len(y)}")
+        return x[:, :n], x[:, n : 2 * n], y
+    columns = next(c for c in _MATRIX_LAYOUTS if _rows_first(np.shape(data[names[0]]), c) is not None)
+    what, velocity, torque = _MATRIX_LAYOUTS[columns]
+    values = _matrix(data, names[0], columns)
+    if columns == 5 * n and len(values) > 1:
+        state, following = values[:-1, 3 * n :], values[1:, : 2 * n]
+        if not np.mean(np.isclose(state, following, rtol=1e-9, atol=1e-12).all(axis=1)) > 0.5:
+            raise RecordingFileError(
+                f"{path}:{part}: 35 columns, but columns 22-35 are not the next row's q and q̇ in most rows, "
+                f"so they are not the layout {what}; no other layout of 35 columns is known"
+            )
+    return values[:, :n], values[:, velocity * n : (velocity + 1) * n], values[:, torque * n : (torque + 1) * n]
+
+
+def read_mat_recording(
+    path: str | os.PathLike[str],
+    part: str | None = None,
+    *,
+    arm: str | None = None,
+    rate_hz: float | None = None,
+    note: Note | None = None,
+) -> Recording:
+    """One part of the MATLAB file at path as the recording of ``arm`` (module docstring); part None
+    for a file of one part. rate_hz: the sample rate, Hz, None to estimate it (said through note).
+    Raises RecordingFileError naming the file and part."""
+    from scipy.io import loadmat
+
+    path = Path(path)
+    parts = _parts(path)
+    if part is None:
+        if len(parts) > 1:
+            raise RecordingFileError(
+                f"{path}: holds {len(parts)} recordings ({', '.join(parts)}); name one as {path}:PART, "
+                "or give the file to diagnose or calibrate, which take each as one recording"
+            )
+        part = next(iter(parts))
+    if part not in parts:
+        raise RecordingFileError(f"{path}: no recording {part!r} in this MATLAB file; it holds {', '.join(parts)}")
+    label = f"{path}:{part}" if len(parts) > 1 else str(path)
+    if arm is None:
+        raise RecordingFileError(f"{label}: a MATLAB file names no arm; pass --arm right|left")
+    try:
+        data = loadmat(str(path), variable_names=list(parts[part]))
+    except Exception as err:  # noqa: BLE001 - as in _contents
+        raise RecordingFileError(f"{path}: not a readable MATLAB file ({err})") from err
+    q, qd, effort = _layout_arrays(path, part, parts[part], data)
+    columns = {
+        f"{prefix}_{joint}": values[:, k]
+        for prefix, values in (("position", q), ("velocity", qd), ("effort", effort))
+        for k, joint in enumerate(JOINT_SUFFIXES)
+    }
+    return columns_recording(Path(label), columns, arm=arm, rate_hz=rate_hz, note=note)

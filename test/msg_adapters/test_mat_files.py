@@ -1,0 +1,152 @@
+"""MATLAB files of recordings, written here with scipy.io.savemat in the layouts robot-learning
+datasets publish (BaxterDirectDynamics' 35 columns per trajectory, BaxterRand's X/Y pairs, the
+SARCOS 28 columns), read back through ``read_recording`` and the commands."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from cli_runs import listing, run_cli, the_error
+from recorded_bags import columns, joint_states
+from reference_models import pinocchio_from_arm
+from scipy.io import savemat
+
+from baxter_dynamics_ros.core.arm_model import load_arm_model
+from baxter_dynamics_ros.core.joints import arm_joint_names
+from baxter_dynamics_ros.core.recording import JUMP_GAP_PERIODS, jumps
+from baxter_dynamics_ros.errors import RecordingFileError
+from msg_adapters.recording_files import read_recording, recordings_in
+
+N = 400
+RATE_HZ = 100.0
+
+
+def arm_states(seed: int = 0, n: int = N) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """q, q̇, τ (n, 7) of a moving arm at RATE_HZ (the right arm of recorded_bags.joint_states)."""
+    return tuple(columns(joint_states(n, rate_hz=RATE_HZ, seed=seed), arm_joint_names("right")))
+
+
+def forward_dynamics(q: np.ndarray, qd: np.ndarray, tau: np.ndarray) -> np.ndarray:
+    """The 35 columns [q, q̇, τ, q⁺, q̇⁺] of one trajectory (its last sample has no next one)."""
+    return np.hstack([q[:-1], qd[:-1], tau[:-1], q[1:], qd[1:]])
+
+
+def assert_read(rec, q: np.ndarray, qd: np.ndarray, tau: np.ndarray) -> None:
+    np.testing.assert_array_equal(rec.q, q)
+    np.testing.assert_array_equal(rec.qd, qd)
+    np.testing.assert_array_equal(rec.effort, tau)
+    assert rec.side == "left" and rec.joint_names == arm_joint_names("left")
+    assert rec.rate_hz == pytest.approx(RATE_HZ, rel=2e-3)  # estimated from q and q̇
+    assert rec.segments == ((0, len(q)),)
+
+
+def test_each_trajectory_of_a_forward_dynamics_file_is_a_recording(tmp_path: Path) -> None:
+    trajectories = [arm_states(seed) for seed in range(3)]
+    path = tmp_path / "BaxterDirectDynamics.mat"
+    savemat(path, {f"baxtertraj{k + 1}": forward_dynamics(*t) for k, t in enumerate(trajectories)} | {"note": "pick and place"})
+    parts = recordings_in(path)
+    assert [str(p) for p in parts] == [f"{path}:baxtertraj{k}" for k in (1, 2, 3)]
+    notes: list[str] = []
+    for part, (q, qd, tau) in zip(parts, trajectories):
+        assert_read(read_recording(part, arm="left", note=notes.append), q[:-1], qd[:-1], tau[:-1])
+    assert len(notes) == 3 and all("sample rate estimated" in n for n in notes)
+    with pytest.raises(RecordingFileError, match=r"holds 3 recordings \(baxtertraj1, baxtertraj2, baxtertraj3\); name one as"):
+        read_recording(path, arm="left")
+    with pytest.raises(RecordingFileError, match=r"no recording 'baxtertraj9'.*holds baxtertraj1, baxtertraj2, baxtertraj3"):
+        read_recording(f"{path}:baxtertraj9", arm="left")
+    with pytest.raises(RecordingFileError, match=r"baxtertraj2: a MATLAB file names no arm; pass --arm"):
+        read_recording(parts[1])
+
+
+def test_inverse_dynamics_pairs_and_sarcos_matrices_read_their_torque_columns(tmp_path: Path) -> None:
+    (q, qd, tau), (q2, qd2, tau2) = arm_states(0), arm_states(1)
+    qdd = np.gradient(qd, axis=0) * RATE_HZ  # given, and not used
+    path = tmp_path / "BaxterRand.mat"
+    savemat(path, {"X_train": np.hstack([q, qd, qdd]), "Y_train": tau, "X_test": np.hstack([q2, qd2, qdd]).T, "Y_test": tau2.T})
+    assert [str(p) for p in recordings_in(path)] == [f"{path}:train", f"{path}:test"]
+    assert_read(read_recording(f"{path}:train", arm="left", note=None), q, qd, tau)
+    assert_read(read_recording(f"{path}:test", arm="left", note=None), q2, qd2, tau2)  # stored transposed
+    sarcos = tmp_path / "sarcos_inv.mat"
+    savemat(sarcos, {"sarcos_inv": np.hstack([q, qd, qdd, tau])})
+    assert recordings_in(sarcos) == [sarcos]
+    assert_read(read_recording(sarcos, arm="left", note=None), q, qd, tau)
+
+
+def test_35_columns_whose_next_state_is_not_the_next_row_are_refused(tmp_path: Path) -> None:
+    matrix = forward_dynamics(*arm_states())
+    matrix[:, 21:] = matrix[::-1, 21:]  # the next-state block of other rows
+    path = tmp_path / "shuffled.mat"
+    savemat(path, {"traj": matrix})
+    with pytest.raises(RecordingFileError, match=r"shuffled.mat:traj: 35 columns, but columns 22-35 are not the next row's q and q̇"):
+        read_recording(path, arm="left")
+
+
+def test_files_that_hold_no_recording_are_refused_saying_what_they_hold(tmp_path: Path) -> None:
+    path = tmp_path / "other.mat"
+    savemat(path, {"X_train": np.zeros((10, 21)), "torques": np.zeros((10, 6)), "label": "ur10"})
+    with pytest.raises(RecordingFileError, match=r"no recording in this MATLAB file \(holds X_train 10×21 double, torques 10×6 double, label 1 char\)"):
+        read_recording(path, arm="left")
+    v73 = tmp_path / "v73.mat"  # MATLAB's v7.3 header, then HDF5
+    v73.write_bytes(b"MATLAB 7.3 MAT-file, HDF5 schema 1.00 .".ljust(116) + bytes(8) + b"\x00\x02IM" + b"\x89HDF\r\n\x1a\n" + bytes(400))
+    with pytest.raises(RecordingFileError, match=r"v73.mat: a MATLAB v7.3 file \(HDF5\), which is not read; save its variables with save\(\.\.\., '-v7'\)"):
+        read_recording(v73, arm="left")
+    text = tmp_path / "text.mat"
+    text.write_text("q qd tau\n1 2 3\n")
+    with pytest.raises(RecordingFileError, match=r"text.mat: not a readable MATLAB file"):
+        read_recording(text, arm="left")
+
+
+def test_trajectories_laid_end_to_end_are_cut_where_the_positions_jump(tmp_path: Path) -> None:
+    """One X/Y pair of two trajectories: the join is a gap, each side a segment of its own."""
+    (q, qd, tau), (q2, qd2, tau2) = arm_states(0), arm_states(1)
+    path = tmp_path / "joined.mat"
+    savemat(path, {"X": np.hstack([np.vstack([q, q2]), np.vstack([qd, qd2]), np.zeros((2 * N, 7))]), "Y": np.vstack([tau, tau2])})
+    notes: list[str] = []
+    rec = read_recording(path, arm="left", note=notes.append)
+    assert rec.segments == ((0, N), (N, 2 * N))
+    steps = np.diff(rec.stamps_ns)
+    assert steps[N - 1] == pytest.approx(JUMP_GAP_PERIODS * np.median(steps), rel=1e-6)
+    assert rec.rate_hz == pytest.approx(RATE_HZ, rel=2e-3)
+    assert any(f"jump at 1 step(s) (first after sample {N - 1})" in n for n in notes), notes
+
+
+def test_jumps_are_steps_beyond_what_the_top_speed_covers() -> None:
+    period = 0.01
+    q = np.zeros((6, 2))
+    qd = np.zeros((6, 2))
+    q[3:, 1] = 0.05  # 0.05 rad in one step at rest: 5 rad/s
+    assert jumps(q, qd, period, np.array([1.0, 6.0])).tolist() == []
+    assert jumps(q, qd, period, np.array([1.0, 4.0])).tolist() == [2]
+    qd[2:4, 1] = 5.0  # the same step, moving at 5 rad/s: explained
+    assert jumps(q, qd, period, np.array([1.0, 4.0])).tolist() == []
+    q[4, 0] = np.nan
+    assert jumps(q, qd, period, np.array([1.0, 4.0])).tolist() == []
+
+
+def test_the_commands_take_each_recording_of_a_matlab_file(tmp_path: Path) -> None:
+    rnea = pinocchio_from_arm(load_arm_model("left")).rnea  # an effort that follows the model, as a real arm's
+
+    def followed(q, qd, tau):
+        qdd = np.gradient(qd, axis=0) * RATE_HZ
+        return q, qd, 0.05 * tau + np.array([rnea(*x) for x in zip(q, qd, qdd)])
+
+    trajectories = [followed(*arm_states(seed, n=2000)) for seed in range(3)]
+    path = tmp_path / "data" / "traj.mat"
+    path.parent.mkdir()
+    savemat(path, {f"t{k}": forward_dynamics(*t) for k, t in enumerate(trajectories)})
+    out = tmp_path / "processed"
+    done = run_cli("process", path.parent, "--arm", "left", "--out", out, "--format", "csv")
+    assert done.returncode == 0, done.stderr
+    assert listing(out) == ["traj_t0.csv", "traj_t1.csv", "traj_t2.csv"]
+    assert "traj.mat:t1: no time column" in done.stderr
+    diagnosed = run_cli("diagnose", "--train", path, "--arm", "left", "--out", tmp_path / "diagnosis", "--jobs", "1")
+    assert diagnosed.returncode == 0, diagnosed.stderr  # t0, t1 trained on, t2 held out: parts told apart
+    assert (tmp_path / "diagnosis" / "report.html").is_file()
+    before = listing(tmp_path)
+    repeated = run_cli("diagnose", "--train", f"{path}:t0", f"{path}:t1", "--test", f"{path}:t1", "--arm", "left", "--out", tmp_path / "d")
+    assert the_error(repeated) == f"ERROR: {path}:t1 (in --test) is the same file as {path}:t1 (in --train): held-out data must not have been fitted on; give each recording once"
+    assert the_error(run_cli("process", f"{path}:t7", "--arm", "left", "--out", tmp_path / "x.csv")).startswith(f"ERROR: {path}: no recording 't7'")
+    assert the_error(run_cli("play", f"{path}:t0")).startswith(f"ERROR: {path}:t0: play takes bags")
+    assert listing(tmp_path) == before
