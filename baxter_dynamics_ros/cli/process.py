@@ -65,7 +65,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Process args.input into args.out; returns 0 (errors raise BaxterDynamicsError)."""
-    from msg_adapters.recording_files import check_output
+    from msg_adapters.recording_files import OUTPUT_FORMATS, check_output
 
     from ..core.output_files import staged_outputs
 
@@ -77,6 +77,11 @@ def run(args: argparse.Namespace) -> int:
         show = sys.stderr.isatty() if args.progress is None else args.progress
         print(f"{args.out}: {_process_one(options, (inputs[0], args.out), show)}")
         return 0
+    if args.out.suffix in OUTPUT_FORMATS and not args.out.is_dir():
+        raise OutputError(
+            f"{args.out}: names a file, but the input stands for {len(inputs)} recordings ({', '.join(map(str, inputs[:3]))}"
+            f"{', ...' if len(inputs) > 3 else ''}); give a folder for their outputs (--format sets their type), or one recording"
+        )
     outputs = [args.out / f"{_output_stem(p)}.{args.format}" for p in inputs]
     clash = next((o for k, o in enumerate(outputs) if o in outputs[:k]), None)
     if clash is not None:

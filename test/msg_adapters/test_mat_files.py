@@ -149,4 +149,6 @@ def test_the_commands_take_each_recording_of_a_matlab_file(tmp_path: Path) -> No
     assert the_error(repeated) == f"ERROR: {path}:t1 (in --test) is the same file as {path}:t1 (in --train): held-out data must not have been fitted on; give each recording once"
     assert the_error(run_cli("process", f"{path}:t7", "--arm", "left", "--out", tmp_path / "x.csv")).startswith(f"ERROR: {path}: no recording 't7'")
     assert the_error(run_cli("play", f"{path}:t0")).startswith(f"ERROR: {path}:t0: play takes bags")
+    one_file = the_error(run_cli("process", path, "--arm", "left", "--out", tmp_path / "all.csv"))
+    assert one_file.startswith(f"ERROR: {tmp_path / 'all.csv'}: names a file, but the input stands for 3 recordings ({path}:t0, {path}:t1, {path}:t2)")
     assert listing(tmp_path) == before
