@@ -159,10 +159,7 @@ def _sample_times_ns(
         return np.round(time_s * 1e9).astype(np.int64)
     if rate_hz is not None and not (np.isfinite(rate_hz) and rate_hz > 0):
         raise RecordingFileError(f"{path}: has no time column and --rate-hz must be a positive number of Hz, got {rate_hz}")
-    estimate = estimate_rate_hz(q, qd)
-    if estimate is not None and rate_hz is None:  # the rate of the motion, without the jumps' steps
-        apart = jumps(q, qd, 1.0 / estimate, speed_bound) + 1
-        estimate = estimate_rate_hz(np.insert(q, apart, np.nan, axis=0), np.insert(qd, apart, np.nan, axis=0)) if apart.size else estimate
+    estimate = estimate_rate_hz(q, qd, speed_bound)
     if estimate is None:
         if rate_hz is None:
             raise RecordingFileError(

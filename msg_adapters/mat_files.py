@@ -13,18 +13,24 @@ from q and q̇ or given, as for a table without one, :mod:`msg_adapters.csv_io`)
   variable, accepted only where the next state is the following row's (the layout's own check);
 - **inverse dynamics**, ``X<s>`` of 21 columns ``[q, q̇, q̈]`` beside ``Y<s>`` of 7 ``[τ]`` (e.g.
   ``X_train``/``Y_train`` and ``X_test``/``Y_test`` of BaxterRand.mat): one part per pair, named by
-  ``<s>`` without its leading underscore (``train``), ``XY`` for a bare ``X``/``Y``;
+  ``<s>`` without its leading underscore (``train``), ``XY`` for a bare ``X``/``Y``, the X
+  variable's name where another part or variable has that name already;
 - a matrix of 28 columns ``[q, q̇, q̈, τ]`` (the SARCOS layout): one part per variable.
 
-The given q̈ is not used (the package estimates its own from q̇). A file names no arm: ``--arm``
-is needed. MATLAB's v7.3 files (HDF5) are refused with what to do; other variables (text, structs,
-matrices of other shapes) are ignored, and a file with no recording names what it holds.
+Matrices stored transposed are read too (a layout with samples in rows is taken first). Parts come
+in the file's order, but a part named ``test`` (a dataset's own held-out split) last, the one
+``diagnose`` holds out when given the file alone. The given q̈ is not used (the package estimates
+its own from q̇). A file names no arm: ``--arm`` is needed. Only matrices of doubles or singles
+are read: other variables (integers, logicals, text, structs, other shapes) are ignored, and a file
+with no recording names what it holds. Refused: MATLAB's v7.3 files (HDF5), with what to do;
+complex numbers; a variable name given twice.
 """
 
 from __future__ import annotations
 
 import os
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -39,10 +45,14 @@ __all__ = ["MAT_SUFFIX", "mat_parts", "read_mat_recording", "split_part"]
 
 MAT_SUFFIX = ".mat"
 #: An input naming one part of a MATLAB file: ``<file>.mat:<part>``.
-_PART_ADDRESS = re.compile(r"^(?P<file>.+\.mat):(?P<part>[A-Za-z0-9_]+)$")
+_PART_ADDRESS = re.compile(r"^(?P<file>.+\.mat):(?P<part>[^:/\\]+)$")
 _JOINTS = len(JOINT_SUFFIXES)
 #: columns of a matrix layout -> (what its blocks of 7 columns hold, the index of q̇'s and τ's blocks)
 _MATRIX_LAYOUTS = {5 * _JOINTS: ("[q, q̇, τ, q⁺, q̇⁺]", 1, 2), 4 * _JOINTS: ("[q, q̇, q̈, τ]", 1, 3)}
+#: The MATLAB classes of the matrices read (integers, logicals, text and the rest are not recordings).
+_NUMBER_CLASSES = ("double", "single")
+#: The part a dataset holds out as its test data, put last (what ``diagnose`` holds out by default).
+_TEST_PART = "test"
 
 
 def split_part(path: str | os.PathLike[str]) -> tuple[Path, str | None]:
@@ -60,13 +70,20 @@ def _contents(path: Path) -> list[tuple[str, tuple[int, ...], str]]:
     if not path.is_file():
         raise RecordingFileError(f"{path}: no such file")
     try:
-        return [(name, tuple(shape), cls) for name, shape, cls in whosmat(str(path))]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # scipy's notes on odd files; what matters is refused below
+            contents = [(name, tuple(shape), cls) for name, shape, cls in whosmat(str(path))]
     except NotImplementedError as err:  # scipy's answer to v7.3
         raise RecordingFileError(
             f"{path}: a MATLAB v7.3 file (HDF5), which is not read; save its variables with save(..., '-v7')"
         ) from err
     except Exception as err:  # noqa: BLE001 - scipy's errors all mean "not a readable MATLAB file"
         raise RecordingFileError(f"{path}: not a readable MATLAB file ({err})") from err
+    names = [name for name, _, _ in contents]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise RecordingFileError(f"{path}: variable {', '.join(twice)} appears more than once in this MATLAB file; which one holds the data cannot be known")
+    return contents
 
 
 def _rows_first(shape: tuple[int, ...], columns: int) -> bool | None:
@@ -79,34 +96,55 @@ def _rows_first(shape: tuple[int, ...], columns: int) -> bool | None:
     return False if shape[0] == columns else None
 
 
-def _parts(path: Path) -> dict[str, tuple[str, ...]]:
-    """part name -> its variables (one matrix, or the X and Y of a pair), in the file's order."""
-    numeric = {name: shape for name, shape, cls in _contents(path) if cls in ("double", "single")}
+def _matrix_layout(shape: tuple[int, ...]) -> int | None:
+    """The columns of the matrix layout a variable of ``shape`` is in: one of samples in rows first,
+    then one stored transposed; None for neither."""
+    for rows_first in (True, False):
+        for columns in _MATRIX_LAYOUTS:
+            if _rows_first(shape, columns) is rows_first:
+                return columns
+    return None
+
+
+def _recordings(path: Path) -> dict[str, tuple[str, ...]]:
+    """part name -> its variables (one matrix, or the X and Y of a pair), in the file's order but
+    a part named ``test`` last; {} for a file that holds none."""
+    numbers = {name: shape for name, shape, cls in _contents(path) if cls in _NUMBER_CLASSES}
     parts: dict[str, tuple[str, ...]] = {}
-    for name, shape in numeric.items():
-        if name.startswith("X") and _rows_first(shape, 3 * _JOINTS) is not None:
-            y = "Y" + name[1:]
-            if y in numeric and _rows_first(numeric[y], _JOINTS) is not None:
-                parts[name[1:].lstrip("_") or "XY"] = (name, y)
-        elif any(_rows_first(shape, c) is not None for c in _MATRIX_LAYOUTS):
+    for name, shape in numbers.items():
+        y = "Y" + name[1:]
+        if name.startswith("X") and _rows_first(shape, 3 * _JOINTS) is not None and _rows_first(numbers.get(y, ()), _JOINTS) is not None:
+            short = name[1:].lstrip("_") or "XY"
+            parts[name if short in numbers or short in parts else short] = (name, y)
+        elif _matrix_layout(shape) is not None:
             parts[name] = (name,)
+    return dict(sorted(parts.items(), key=lambda item: item[0] == _TEST_PART))
+
+
+def _parts(path: Path) -> dict[str, tuple[str, ...]]:
+    """:func:`_recordings`, refusing a file that holds none by what it holds."""
+    parts = _recordings(path)
     if not parts:
         held = ", ".join(f"{n} {'×'.join(map(str, s))} {c}" for n, s, c in _contents(path)) or "no variables"
         raise RecordingFileError(
-            f"{path}: no recording in this MATLAB file (holds {held}); expected matrices of 35 columns "
-            "[q, q̇, τ, q⁺, q̇⁺] or 28 [q, q̇, q̈, τ], or X<s> of 21 columns [q, q̇, q̈] with Y<s> of 7 [τ]"
+            f"{path}: no recording in this MATLAB file (holds {held}); expected matrices of {' / '.join(_NUMBER_CLASSES)} "
+            "of 35 columns [q, q̇, τ, q⁺, q̇⁺] or 28 [q, q̇, q̈, τ], or X<s> of 21 columns [q, q̇, q̈] with Y<s> of 7 [τ]"
         )
     return parts
 
 
 def mat_parts(path: str | os.PathLike[str]) -> list[str]:
-    """The names of the recordings (parts) in the MATLAB file at path (module docstring)."""
-    return list(_parts(Path(path)))
+    """The names of the recordings (parts) in the MATLAB file at path (module docstring); [] for a
+    readable file that holds none (RecordingFileError for one that cannot be read)."""
+    return list(_recordings(Path(path)))
 
 
-def _matrix(data: dict, name: str, columns: int) -> np.ndarray:
+def _matrix(path: Path, data: dict, name: str, columns: int) -> np.ndarray:
     """Variable ``name`` of loaded ``data`` as an (N, columns) float64 array, samples in rows."""
-    values = np.asarray(data[name], dtype=np.float64)
+    values = np.asarray(data[name])
+    if np.iscomplexobj(values):
+        raise RecordingFileError(f"{path}: variable {name} holds complex numbers; angles, velocities and torques are real")
+    values = values.astype(np.float64)
     return values if _rows_first(values.shape, columns) else values.T
 
 
@@ -114,13 +152,13 @@ def _layout_arrays(path: Path, part: str, names: tuple[str, ...], data: dict) ->
     """q, q̇, τ (N, 7) of one part from its loaded variables."""
     n = _JOINTS
     if len(names) == 2:
-        x, y = _matrix(data, names[0], 3 * n), _matrix(data, names[1], n)
+        x, y = _matrix(path, data, names[0], 3 * n), _matrix(path, data, names[1], n)
         if len(x) != len(y):
             raise RecordingFileError(f"{path}:{part}: {names[0]} has {len(x)} samples but {names[1]} {len(y)}")
         return x[:, :n], x[:, n : 2 * n], y
-    columns = next(c for c in _MATRIX_LAYOUTS if _rows_first(np.shape(data[names[0]]), c) is not None)
+    columns = _matrix_layout(np.shape(data[names[0]]))
     what, velocity, torque = _MATRIX_LAYOUTS[columns]
-    values = _matrix(data, names[0], columns)
+    values = _matrix(path, data, names[0], columns)
     if columns == 5 * n and len(values) > 1:
         state, following = values[:-1, 3 * n :], values[1:, : 2 * n]
         if not np.mean(np.isclose(state, following, rtol=1e-9, atol=1e-12).all(axis=1)) > 0.5:
@@ -159,7 +197,9 @@ def read_mat_recording(
     if arm is None:
         raise RecordingFileError(f"{label}: a MATLAB file names no arm; pass --arm right|left")
     try:
-        data = loadmat(str(path), variable_names=list(parts[part]))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            data = loadmat(str(path), variable_names=list(parts[part]))
     except Exception as err:  # noqa: BLE001 - as in _contents
         raise RecordingFileError(f"{path}: not a readable MATLAB file ({err})") from err
     q, qd, effort = _layout_arrays(path, part, parts[part], data)

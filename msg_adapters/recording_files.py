@@ -86,14 +86,23 @@ def source_file(path: str | os.PathLike[str]) -> Path:
     return split_part(path)[0]
 
 
-def recordings_in(path: str | os.PathLike[str]) -> list[Path]:
+def recordings_in(path: str | os.PathLike[str], *, listed: bool = False) -> list[Path]:
     """The recordings an input file stands for: a MATLAB file of several recordings, each as
-    ``<file>.mat:<part>``; any other path, itself (RecordingFileError for an unreadable MATLAB file)."""
+    ``<file>.mat:<part>``; any other path, itself. listed (a file found in a folder or by a
+    pattern, not named): [] for a MATLAB file that holds no recording, instead of itself (whose
+    read then says so). RecordingFileError for a MATLAB file that cannot be read, or that a file
+    named like one of its parts would hide."""
     path = Path(path)
     if path.suffix != MAT_SUFFIX or not path.is_file():
         return [path]
     parts = mat_parts(path)
-    return [path] if len(parts) == 1 else [Path(f"{path}:{part}") for part in parts]
+    if len(parts) <= 1:
+        return [] if listed and not parts else [path]
+    addresses = [Path(f"{path}:{part}") for part in parts]
+    hiding = next((a for a in addresses if a.exists()), None)
+    if hiding is not None:
+        raise RecordingFileError(f"{hiding}: a file of this name hides the recording {hiding.name.rsplit(':', 1)[1]} of {path}; rename it")
+    return addresses
 
 
 def is_bag_folder(path: str | os.PathLike[str]) -> bool:

@@ -2,7 +2,8 @@
 
 One expansion for ``process``, ``diagnose`` and ``calibrate``: a file stays itself, but a MATLAB
 file of several recordings stands for each (``<file>.mat:<part>``, :mod:`msg_adapters.mat_files`),
-and ``<file>.mat:<part>`` names one; a ROS 2 bag
+and ``<file>.mat:<part>`` names one (a MATLAB file of no recording found in a folder or by a
+pattern is passed over, as a file of another kind is); a ROS 2 bag
 folder (it holds ``metadata.yaml``) is one recording; any other folder stands for the recordings
 directly in it (bag files, bag folders and tables, by name; not its subfolders' contents: a folder
 of folders of bags would mix unrelated sessions by accident); a pattern with ``*``, ``?`` or ``[``
@@ -52,11 +53,11 @@ def _recordings_at(path: Path, *, quiet: bool) -> list[Path]:
     if is_bag_folder(path):
         return [path]
     if path.is_file():
-        return recordings_in(path) if not quiet or path.suffix in INPUT_SUFFIXES else []
+        return recordings_in(path, listed=quiet) if not quiet or path.suffix in INPUT_SUFFIXES else []
     if not path.is_dir():
         return [] if quiet else [path]
     found = sorted(p for p in path.iterdir() if (p.is_file() and p.suffix in INPUT_SUFFIXES) or is_bag_folder(p))
-    found = [r for p in found for r in recordings_in(p)]
+    found = [r for p in found for r in recordings_in(p, listed=True)]
     if not found and not quiet:
         raise RecordingFileError(f"{path}: a folder with no recording in it ({_kinds()}); give files, bag folders or a folder of them")
     return found

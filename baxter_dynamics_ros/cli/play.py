@@ -42,10 +42,12 @@ def run(args: argparse.Namespace) -> int:
 
     if not (args.speed > 0):
         raise PlaybackError(f"--speed must be positive, got {args.speed}")
-    if split_part(args.bag)[0].suffix in (*TABLE_SUFFIXES, MAT_SUFFIX):
+    file, part = split_part(args.bag)
+    if file.suffix in (*TABLE_SUFFIXES, MAT_SUFFIX):
+        one = f"{file}:{part or 'PART'} --arm ARM" if file.suffix == MAT_SUFFIX else f"{file}"
         raise PlaybackError(
             f"{args.bag}: play takes bags (.bag, a ROS 2 bag folder, .mcap, .db3), not tables or MATLAB files; make one with "
-            f"`baxter-dynamics process {args.bag} --out BAG.mcap` and play it with --topics {DEFAULT_TOPIC}"
+            f"`baxter-dynamics process {one} --out BAG.mcap` and play it with --topics {DEFAULT_TOPIC}"
         )
     messages = read_joint_state_messages(args.bag, args.topics)
     from ..ros.player import play  # imports rclpy: only once the bag has been read

@@ -42,6 +42,8 @@ __all__ = [
 MIN_MOTION_RAD = 0.01
 #: Least correlation of Δq with q̇ Δt for a sample rate estimated from them to be believed.
 MIN_RATE_FIT_CORRELATION = 0.5
+#: Most estimates of the rate made while the steps taken for jumps change (they settle in two or three).
+_JUMP_ROUNDS = 8
 #: The least one recording must hold for the offline methods (``diagnose``, ``calibrate``): 2 s —
 #: four periods of the gap analysis' 2 Hz systematic band, twenty of the diagnosis' 0.1 s
 #: decorrelation time, forty time constants of the momentum observer at its default gain — in
@@ -103,27 +105,39 @@ def _span_rad(q: np.ndarray) -> float:
     return float(np.ptp(q, axis=0).max()) if q.size else 0.0
 
 
-def estimate_rate_hz(q: np.ndarray, qd: np.ndarray) -> float | None:
+def estimate_rate_hz(q: np.ndarray, qd: np.ndarray, speed_bound_rad_s: np.ndarray | None = None) -> float | None:
     """The sample rate of evenly spaced samples, Hz, from their positions and velocities alone.
 
     q (N, m) rad, qd (N, m) rad/s. The sample period Δt is the least-squares solution of
     Δq_k = Δt (q̇_k + q̇_{k+1}) / 2 (the trapezoid rule) over every step k and joint:
     Δt = Σ Δq_k v̄_k / Σ v̄_k². None when it cannot be made: no joint spans :data:`MIN_MOTION_RAD`
     (the arm never moves), or Δq and v̄ correlate less than :data:`MIN_RATE_FIT_CORRELATION`
-    (the velocities do not describe these positions). Steps with a non-finite value are left out.
+    (the velocities do not describe these positions). Steps with a non-finite value are left out;
+    with ``speed_bound_rad_s`` (m,) so are the steps no motion explains at the estimate
+    (:func:`jumps`: trajectories laid end to end), the estimate made again until they stay the same.
     """
     q = np.asarray(q, dtype=np.float64)
     qd = np.asarray(qd, dtype=np.float64)
-    dq = np.diff(q, axis=0).ravel()
-    v_mean = (0.5 * (qd[1:] + qd[:-1])).ravel()
+    dq = np.diff(q, axis=0)
+    v_mean = 0.5 * (qd[1:] + qd[:-1])
     finite = np.isfinite(dq) & np.isfinite(v_mean)
-    dq, v_mean = dq[finite], v_mean[finite]
     if not finite.any() or _span_rad(q[np.isfinite(q).all(axis=1)]) < MIN_MOTION_RAD:
         return None
-    vv, dd = float(v_mean @ v_mean), float(dq @ dq)
-    if vv == 0.0 or dd == 0.0:
-        return None
-    dq_v = float(dq @ v_mean)
+    kept = np.ones(len(dq), dtype=bool)
+    for _ in range(_JUMP_ROUNDS):
+        used = finite & kept[:, None]
+        d, v = dq[used], v_mean[used]
+        vv, dd = float(v @ v), float(d @ d)
+        if vv == 0.0 or dd == 0.0:
+            return None
+        dq_v = float(d @ v)
+        if dq_v <= 0.0 or speed_bound_rad_s is None:
+            break
+        now = np.ones(len(dq), dtype=bool)
+        now[jumps(q, qd, dq_v / vv, speed_bound_rad_s)] = False
+        if np.array_equal(now, kept):
+            break
+        kept = now
     if dq_v / np.sqrt(vv * dd) < MIN_RATE_FIT_CORRELATION:
         return None
     return vv / dq_v

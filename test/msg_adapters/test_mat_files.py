@@ -17,6 +17,7 @@ from baxter_dynamics_ros.core.arm_model import load_arm_model
 from baxter_dynamics_ros.core.joints import arm_joint_names
 from baxter_dynamics_ros.core.recording import JUMP_GAP_PERIODS, jumps
 from baxter_dynamics_ros.errors import RecordingFileError
+from baxter_dynamics_ros.cli.inputs import expand_inputs
 from msg_adapters.recording_files import read_recording, recordings_in
 
 N = 400
@@ -99,8 +100,11 @@ def test_files_that_hold_no_recording_are_refused_saying_what_they_hold(tmp_path
 
 
 def test_trajectories_laid_end_to_end_are_cut_where_the_positions_jump(tmp_path: Path) -> None:
-    """One X/Y pair of two trajectories: the join is a gap, each side a segment of its own."""
+    """One X/Y pair of two trajectories, the second 0.8 rad away at s1 and e0: the join's step is left
+    out of the rate's estimate (with it, the estimate is 3 % off), the join is a gap,
+    each side a segment of its own."""
     (q, qd, tau), (q2, qd2, tau2) = arm_states(0), arm_states(1)
+    q2 = q2 + np.array([0.0, -0.8, 0.8, 0.0, 0.0, 0.0, 0.0])
     path = tmp_path / "joined.mat"
     savemat(path, {"X": np.hstack([np.vstack([q, q2]), np.vstack([qd, qd2]), np.zeros((2 * N, 7))]), "Y": np.vstack([tau, tau2])})
     notes: list[str] = []
@@ -152,3 +156,56 @@ def test_the_commands_take_each_recording_of_a_matlab_file(tmp_path: Path) -> No
     one_file = the_error(run_cli("process", path, "--arm", "left", "--out", tmp_path / "all.csv"))
     assert one_file.startswith(f"ERROR: {tmp_path / 'all.csv'}: names a file, but the input stands for 3 recordings ({path}:t0, {path}:t1, {path}:t2)")
     assert listing(tmp_path) == before
+
+
+def test_the_parts_of_a_file_are_named_and_ordered_without_clashes(tmp_path: Path) -> None:
+    """Pairs whose short names clash keep the X variable's name; a dataset's ``test`` part comes last
+    (MATLAB saves variables in alphabetical order); names of any characters are addressed; a layout
+    with samples in rows wins over a transposed one (35 samples of 28 columns)."""
+    (q, qd, tau), (q2, qd2, tau2) = arm_states(0), arm_states(1)
+    qdd = np.zeros_like(q)
+    path = tmp_path / "pairs.mat"
+    savemat(path, {"X_test": np.hstack([q2, qd2, qdd]), "X_train": np.hstack([q, qd, qdd]), "Xtrain": np.hstack([q2, qd2, qdd]),
+                   "Y_test": tau2, "Y_train": tau, "Ytrain": tau2})  # fmt: skip
+    assert [p.name for p in recordings_in(path)] == ["pairs.mat:train", "pairs.mat:Xtrain", "pairs.mat:test"]
+    assert_read(read_recording(f"{path}:train", arm="left", note=None), q, qd, tau)
+    assert_read(read_recording(f"{path}:Xtrain", arm="left", note=None), q2, qd2, tau2)
+    dashes = tmp_path / "dashes.mat"
+    savemat(dashes, {"traj-1": forward_dynamics(q, qd, tau), "traj-2": forward_dynamics(q2, qd2, tau2)})
+    assert [p.name for p in recordings_in(dashes)] == ["dashes.mat:traj-1", "dashes.mat:traj-2"]
+    assert_read(read_recording(f"{dashes}:traj-2", arm="left", note=None), q2[:-1], qd2[:-1], tau2[:-1])
+    square = tmp_path / "square.mat"
+    savemat(square, {"s": np.hstack([q, qd, qdd, tau])[:35]})
+    rec = read_recording(square, arm="left", rate_hz=RATE_HZ, note=None)
+    np.testing.assert_array_equal(rec.effort, tau[:35])
+    (tmp_path / "pairs.mat:test").write_text("a file named like a part")
+    with pytest.raises(RecordingFileError, match=r"pairs.mat:test: a file of this name hides the recording test of .*pairs.mat; rename it"):
+        recordings_in(path)
+
+
+def test_complex_numbers_and_a_name_given_twice_are_refused(tmp_path: Path) -> None:
+    q, qd, tau = arm_states()
+    path = tmp_path / "complex.mat"
+    savemat(path, {"traj": forward_dynamics(q + 1e-3j, qd, tau)})
+    with pytest.raises(RecordingFileError, match=r"complex.mat: variable traj holds complex numbers"):
+        read_recording(path, arm="left")
+    twice = tmp_path / "twice.mat"  # a second file's variables (after its 128-byte header) appended
+    savemat(twice, {"traj": np.zeros((5, 3))})
+    second = tmp_path / "second.mat"
+    savemat(second, {"traj": forward_dynamics(q, qd, tau)})
+    twice.write_bytes(twice.read_bytes() + second.read_bytes()[128:])
+    with pytest.raises(RecordingFileError, match=r"twice.mat: variable traj appears more than once in this MATLAB file"):
+        read_recording(twice, arm="left")
+
+
+def test_a_folder_passes_over_a_matlab_file_of_no_recording(tmp_path: Path) -> None:
+    """A calibration file beside the data is not an input; named on its own, it is refused."""
+    folder = tmp_path / "runs"
+    folder.mkdir()
+    savemat(folder / "calibration.mat", {"offsets": np.zeros(7), "note": "not a recording"})
+    savemat(folder / "run.mat", {"traj": forward_dynamics(*arm_states())})
+    assert expand_inputs([folder]) == [folder / "run.mat"]
+    assert expand_inputs([folder / "*.mat"]) == [folder / "run.mat"]
+    assert expand_inputs([folder / "calibration.mat"]) == [folder / "calibration.mat"]
+    with pytest.raises(RecordingFileError, match=r"calibration.mat: no recording in this MATLAB file \(holds offsets 1×7 double, note 1 char\)"):
+        read_recording(folder / "calibration.mat", arm="left")
