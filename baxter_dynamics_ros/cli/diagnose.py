@@ -39,7 +39,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The command's options."""
     from msg_adapters.bag_io import DEFAULT_TOPIC
 
-    parser.add_argument("--train", type=Path, nargs="+", required=True, metavar="FILE", help="recordings to fit on (bags, tables, folders of them, quoted patterns)")
+    parser.add_argument("--train", type=Path, nargs="+", required=True, metavar="FILE", help="recordings to fit on (bags, tables, MATLAB files or FILE.mat:PART, folders of them, quoted patterns)")
     parser.add_argument("--test", type=Path, nargs="+", default=[], metavar="FILE", help="held-out recordings to measure on (as --train)")
     parser.add_argument("--out", "-o", type=Path, required=True, metavar="DIR", help="output folder (created)")
     parser.add_argument("--arm", choices=("right", "left"), help="arm to diagnose (default: from the joint names)")
