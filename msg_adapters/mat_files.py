@@ -106,10 +106,10 @@ def _matrix_layout(shape: tuple[int, ...]) -> int | None:
     return None
 
 
-def _recordings(path: Path) -> dict[str, tuple[str, ...]]:
-    """part name -> its variables (one matrix, or the X and Y of a pair), in the file's order but
-    a part named ``test`` last; {} for a file that holds none."""
-    numbers = {name: shape for name, shape, cls in _contents(path) if cls in _NUMBER_CLASSES}
+def _recordings(contents: list[tuple[str, tuple[int, ...], str]]) -> dict[str, tuple[str, ...]]:
+    """part name -> its variables (one matrix, or the X and Y of a pair) of a file's
+    :func:`_contents`, in the file's order but a part named ``test`` last; {} for none."""
+    numbers = {name: shape for name, shape, cls in contents if cls in _NUMBER_CLASSES}
     parts: dict[str, tuple[str, ...]] = {}
     for name, shape in numbers.items():
         y = "Y" + name[1:]
@@ -123,9 +123,10 @@ def _recordings(path: Path) -> dict[str, tuple[str, ...]]:
 
 def _parts(path: Path) -> dict[str, tuple[str, ...]]:
     """:func:`_recordings`, refusing a file that holds none by what it holds."""
-    parts = _recordings(path)
+    contents = _contents(path)
+    parts = _recordings(contents)
     if not parts:
-        held = ", ".join(f"{n} {'×'.join(map(str, s))} {c}" for n, s, c in _contents(path)) or "no variables"
+        held = ", ".join(f"{n} {'×'.join(map(str, s))} {c}" for n, s, c in contents) or "no variables"
         raise RecordingFileError(
             f"{path}: no recording in this MATLAB file (holds {held}); expected matrices of {' / '.join(_NUMBER_CLASSES)} "
             "of 35 columns [q, q̇, τ, q⁺, q̇⁺] or 28 [q, q̇, q̈, τ], or X<s> of 21 columns [q, q̇, q̈] with Y<s> of 7 [τ]"
@@ -136,7 +137,7 @@ def _parts(path: Path) -> dict[str, tuple[str, ...]]:
 def mat_parts(path: str | os.PathLike[str]) -> list[str]:
     """The names of the recordings (parts) in the MATLAB file at path (module docstring); [] for a
     readable file that holds none (RecordingFileError for one that cannot be read)."""
-    return list(_recordings(Path(path)))
+    return list(_recordings(_contents(Path(path))))
 
 
 def _matrix(path: Path, data: dict, name: str, columns: int) -> np.ndarray:
