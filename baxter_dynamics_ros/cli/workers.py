@@ -33,7 +33,7 @@ from typing import Any
 
 from ..diagnosis.sources import Mapper, serial_map
 from ..errors import WorkerError
-from .main import signals_deferred
+from .signals import signals_deferred
 
 __all__ = ["CONNECT_TIMEOUT_S", "add_worker_arguments", "check_scheduler", "default_jobs", "file_mapper", "one_thread"]
 

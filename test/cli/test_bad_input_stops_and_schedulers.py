@@ -327,12 +327,12 @@ def test_sigterm_at_any_time_is_one_line_and_exit_143(recordings: dict[str, Path
 
 _HOLDING_COMMAND = """
 import os, signal, sys, time, types
-from baxter_dynamics_ros.cli import main as cli
+from baxter_dynamics_ros.cli import main as cli, signals
 hold = types.ModuleType("hold")
 hold.add_arguments = lambda parser: None
 def run(args):
     try:
-        with cli.signals_deferred():
+        with signals.signals_deferred():
             for _ in range({times}):
                 os.kill(os.getpid(), signal.{signal})
                 time.sleep(0.3)
