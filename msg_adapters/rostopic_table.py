@@ -12,7 +12,9 @@ or ``-b run.bag`` for a bag). The layout is rostopic's plot format:
   too, its ``actual_*`` arrays, as from a bag: its header names ``field.actual_position0``.
 
 Messages of another length (a gripper's on Baxter's topic) keep their own fields, so each row is
-read on its own: its names are the fields after frame_id that are not numbers. Rows that are not a
+read on its own: its names are the fields after frame_id that are not numbers. rostopic prints the
+frame_id as it is: the commas of one (``base,link``) are counted on the first row, whose number of
+names the header gives, and that many fields are passed over before the names of every row. Rows that are not a
 sample of the arm (a joint missing, an array missing or of another length, a value that is not a
 number) are skipped and counted as a bag's malformed messages are
 (:func:`msg_adapters.bag_io.joint_state_recording`, which assembles the recording); rows without a
@@ -188,6 +190,17 @@ def _split_names(rest: str, previous: tuple[str, ...]) -> tuple[tuple[str, ...],
     return tuple(fields[:m]), ",".join(fields[m:])
 
 
+def _frame_id_commas(rest: str, m: int, layout: _Layout) -> int:
+    """How many commas the frame_id of a row holds, from the first row, whose m names the header
+    gives: rostopic prints the frame_id as it is, so each comma in it puts one more field that is
+    not a number before the names. 0 when the row's numbers do not fit m names in the layout."""
+    fields = rest.split(",")
+    k = 0
+    while k < len(fields) and not _is_number(fields[k]):
+        k += 1
+    return k - m if k > m and len(fields) - k == layout.count * m + layout.trailing else 0
+
+
 def _topic_data(path: str | os.PathLike[str], note: Callable[[str], None] | None = None) -> TopicData:
     """The joint-state messages of a ``rostopic echo -p`` table, as a bag topic's decoded messages.
 
@@ -206,6 +219,8 @@ def _topic_data(path: str | os.PathLike[str], note: Callable[[str], None] | None
                     f"{path}: not a table of rostopic echo -p joint states (its header must start {HEADER_START!r} and name {NAMES_FIELD})"
                 )
             names_at = header.index(NAMES_FIELD)
+            header_names = sum(1 for h in header if h.startswith("field.name"))
+            commas: int | None = None  # in the frame_id, from the first row
             stamp_at = header.index(STAMP_FIELD) if STAMP_FIELD in header[:names_at] else None
             rows = _Rows(_Layout.of_header(path, [h for h in header[names_at:] if not h.startswith("field.name")]))
             for line in f:
@@ -221,7 +236,12 @@ def _topic_data(path: str | os.PathLike[str], note: Callable[[str], None] | None
                 except ValueError:
                     unreadable += 1
                     continue
-                names, numbers = _split_names(fields[names_at], names)
+                rest = fields[names_at]
+                if commas is None:
+                    commas = _frame_id_commas(rest, header_names, rows.layout)
+                if commas:
+                    rest = rest.split(",", commas)[-1] if rest.count(",") >= commas else ""
+                names, numbers = _split_names(rest, names)
                 rows.add(time_ns, stamp_ns, names, numbers)
                 if len(rows.times_ns) % CHUNK_ROWS == 0:
                     rows.flush()

@@ -83,6 +83,23 @@ def test_rows_of_other_layouts_are_matched_by_name_and_the_rest_skipped_and_coun
     assert missing and length
 
 
+@pytest.mark.parametrize("frame_id", ["base,link", "a,b,c"])
+def test_a_frame_id_with_commas_is_passed_over(tmp_path: Path, frame_id: str) -> None:
+    """rostopic prints a frame_id as it is, commas and all: its pieces are not joint names, on the
+    rows of the arm as on a gripper's rows between them (still skipped as missing the arm's joints)."""
+    states = joint_states(40)
+    lines = [rostopic_plot_header(BAXTER_JOINTS)]
+    for k, stamp in enumerate(states["stamps_ns"]):
+        lines.append(rostopic_plot_row(int(stamp), int(stamp), BAXTER_JOINTS, *(states[f][k] for f in ("position", "velocity", "effort")), frame_id=frame_id))
+        if k % 9 == 4:
+            lines.append(rostopic_plot_row(int(stamp) + 1, int(stamp) + 1, ["l_gripper_l_finger_joint"], [0.01], [0.0], [0.0], frame_id=frame_id))
+    path = tmp_path / "frame.csv"
+    path.write_text("\n".join(lines) + "\n")
+    notes: list[str] = []
+    assert_arm(read_recording(path, note=notes.append), states, "right")
+    assert notes == [f"WARNING: {path}: 4 of 44 messages in this table skipped as malformed (4 {SkipReason.MISSING_JOINT.value})"]
+
+
 def test_without_header_stamps_the_time_column_is_used(tmp_path: Path) -> None:
     states = joint_states(40)
     lines = [rostopic_plot_header(BAXTER_JOINTS)]
