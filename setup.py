@@ -132,9 +132,10 @@ setup(
         "matplotlib>=3.11.2",
         "pyarrow>=26.0.1",
         "threadpoolctl>=3.8.0",
+        "h5py>=3.16.0",
     ],
     extras_require={
-        "pypi": ros_wheels + ["numpy", "numba", "pyyaml", "pin", "cmeel-eigen", "rosbags", "scipy", "matplotlib", "pyarrow", "threadpoolctl", "dask[distributed]==2026.8.0"],
+        "pypi": ros_wheels + ["numpy", "numba", "pyyaml", "pin", "cmeel-eigen", "rosbags", "scipy", "matplotlib", "pyarrow", "threadpoolctl", "h5py", "dask[distributed]==2026.8.0"],
         "test": ["pytest", "hypothesis", "colcon-common-extensions", "mcap", "dask[distributed]==2026.8.0"],
         "interfaces": interface_build_wheels,
         "cluster": ["dask[distributed]==2026.8.0"],

@@ -22,8 +22,12 @@ in the file's order, but a part named ``test`` (a dataset's own held-out split) 
 ``diagnose`` holds out when given the file alone. The given q̈ is not used (the package estimates
 its own from q̇). A file names no arm: ``--arm`` is needed. Only matrices of doubles or singles
 are read: other variables (integers, logicals, text, structs, other shapes) are ignored, and a file
-with no recording names what it holds. Refused: MATLAB's v7.3 files (HDF5), with what to do;
-complex numbers; a variable name given twice.
+with no recording names what it holds. Refused: complex numbers; a variable name given twice.
+
+MATLAB's v7.3 files (HDF5, what ``save -v7.3`` writes and files over 2 GB need) are read with h5py:
+each top-level dataset is a variable, its MATLAB class in the attribute ``MATLAB_class``, stored
+column-major (an N×35 matrix as a dataset of shape (35, N)); groups (structs), references and empty
+variables are not recordings. Their variables come in name order (HDF5's), not saving order.
 """
 
 from __future__ import annotations
@@ -31,7 +35,9 @@ from __future__ import annotations
 import os
 import re
 import warnings
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -63,6 +69,23 @@ def split_part(path: str | os.PathLike[str]) -> tuple[Path, str | None]:
     return (path, None) if match is None else (Path(match["file"]), match["part"])
 
 
+def _hdf5_variables(path: Path) -> Iterator[tuple[str, tuple[int, ...], str, Any]]:
+    """(name, MATLAB shape, MATLAB class, h5py object) of each variable of the v7.3 file at path,
+    inside an open file (a generator used within one ``with``)."""
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        for name, item in f.items():
+            if name.startswith("#"):  # "#refs#", "#subsystem#": MATLAB's own storage, no variable
+                continue
+            cls = item.attrs.get("MATLAB_class", b"")
+            cls = cls.decode(errors="replace") if isinstance(cls, bytes) else str(cls)
+            if not isinstance(item, h5py.Dataset) or item.attrs.get("MATLAB_empty", 0):
+                yield name, (), cls if not isinstance(item, h5py.Dataset) else "empty", item
+                continue
+            yield name, tuple(item.shape[::-1]), cls, item
+
+
 def _contents(path: Path) -> list[tuple[str, tuple[int, ...], str]]:
     """The variables of the MATLAB file at path: (name, shape, MATLAB class), without their data."""
     from scipy.io import whosmat
@@ -73,10 +96,11 @@ def _contents(path: Path) -> list[tuple[str, tuple[int, ...], str]]:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # scipy's notes on odd files; what matters is refused below
             contents = [(name, tuple(shape), cls) for name, shape, cls in whosmat(str(path))]
-    except NotImplementedError as err:  # scipy's answer to v7.3
-        raise RecordingFileError(
-            f"{path}: a MATLAB v7.3 file (HDF5), which is not read; save its variables with save(..., '-v7')"
-        ) from err
+    except NotImplementedError:  # scipy's answer to v7.3: HDF5
+        try:
+            contents = [(name, shape, cls) for name, shape, cls, _ in _hdf5_variables(path)]
+        except Exception as err:  # noqa: BLE001 - h5py's errors all mean "not a readable HDF5 file"
+            raise RecordingFileError(f"{path}: a MATLAB v7.3 file whose HDF5 cannot be read ({err})") from err
     except Exception as err:  # noqa: BLE001 - scipy's errors all mean "not a readable MATLAB file"
         raise RecordingFileError(f"{path}: not a readable MATLAB file ({err})") from err
     names = [name for name, _, _ in contents]
@@ -126,7 +150,7 @@ def _parts(path: Path) -> dict[str, tuple[str, ...]]:
     contents = _contents(path)
     parts = _recordings(contents)
     if not parts:
-        held = ", ".join(f"{n} {'×'.join(map(str, s))} {c}" for n, s, c in contents) or "no variables"
+        held = ", ".join(" ".join(filter(None, (n, "×".join(map(str, s)), c))) for n, s, c in contents) or "no variables"
         raise RecordingFileError(
             f"{path}: no recording in this MATLAB file (holds {held}); expected matrices of {' / '.join(_NUMBER_CLASSES)} "
             "of 35 columns [q, q̇, τ, q⁺, q̇⁺] or 28 [q, q̇, q̈, τ], or X<s> of 21 columns [q, q̇, q̈] with Y<s> of 7 [τ]"
@@ -171,6 +195,31 @@ def _layout_arrays(path: Path, part: str, names: tuple[str, ...], data: dict) ->
     return values[:, :n], values[:, velocity * n : (velocity + 1) * n], values[:, torque * n : (torque + 1) * n]
 
 
+def _load(path: Path, names: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """Variables ``names`` of the MATLAB file at path, each as MATLAB holds it (rows, columns)."""
+    from scipy.io import loadmat
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return loadmat(str(path), variable_names=list(names))
+    except NotImplementedError:  # v7.3
+        pass
+    except Exception as err:  # noqa: BLE001 - as in _contents
+        raise RecordingFileError(f"{path}: not a readable MATLAB file ({err})") from err
+    data = {}
+    try:
+        for name, _, _, item in _hdf5_variables(path):
+            if name in names:
+                values = item[()]
+                if values.dtype.names is not None and {"real", "imag"} <= set(values.dtype.names):
+                    values = values["real"] + 1j * values["imag"]  # MATLAB's complex: a compound of two
+                data[name] = np.asarray(values).T
+    except Exception as err:  # noqa: BLE001 - as in _contents
+        raise RecordingFileError(f"{path}: a MATLAB v7.3 file whose HDF5 cannot be read ({err})") from err
+    return data
+
+
 def read_mat_recording(
     path: str | os.PathLike[str],
     part: str | None = None,
@@ -182,8 +231,6 @@ def read_mat_recording(
     """One part of the MATLAB file at path as the recording of ``arm`` (module docstring); part None
     for a file of one part. rate_hz: the sample rate, Hz, None to estimate it (said through note).
     Raises RecordingFileError naming the file and part."""
-    from scipy.io import loadmat
-
     path = Path(path)
     parts = _parts(path)
     if part is None:
@@ -198,12 +245,7 @@ def read_mat_recording(
     label = f"{path}:{part}" if len(parts) > 1 else str(path)
     if arm is None:
         raise RecordingFileError(f"{label}: a MATLAB file names no arm; pass --arm right|left")
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            data = loadmat(str(path), variable_names=list(parts[part]))
-    except Exception as err:  # noqa: BLE001 - as in _contents
-        raise RecordingFileError(f"{path}: not a readable MATLAB file ({err})") from err
+    data = _load(path, parts[part])
     q, qd, effort = _layout_arrays(path, part, parts[part], data)
     columns = {
         f"{prefix}_{joint}": values[:, k]

@@ -186,3 +186,34 @@ def write_rostopic_table(path: Path, states: dict, names: Sequence[str] = BAXTER
         rows.append(rostopic_plot_row(int(stamp) + receive_delay_ns, int(stamp), names, *arrays, seq=k))
     path.write_text("\n".join(rows) + "\n")
     return path
+
+
+def savemat_v73(path: Path, variables: dict) -> Path:
+    """A MATLAB v7.3 file as MATLAB writes one: a 512-byte user block holding the MAT header (text,
+    version 0x0200, "IM"), then HDF5 with one dataset per variable, column-major (a MATLAB N×M matrix
+    is a dataset of shape (M, N)), its class in the attribute MATLAB_class; complex numbers as a
+    compound of real and imag; text as uint16 characters; a struct as a group."""
+    import h5py
+
+    with h5py.File(path, "w", userblock_size=512) as f:
+        for name, value in variables.items():
+            if isinstance(value, dict):
+                group = f.create_group(name)
+                group.attrs["MATLAB_class"] = np.bytes_("struct")
+                for key, inner in value.items():
+                    group.create_dataset(key, data=np.atleast_2d(inner).T).attrs["MATLAB_class"] = np.bytes_("double")
+                continue
+            if isinstance(value, str):
+                data, cls = np.array([[ord(c)] for c in value], dtype=np.uint16), "char"
+            elif np.iscomplexobj(value):
+                value = np.atleast_2d(value).T
+                data = np.empty(value.shape, dtype=[("real", "<f8"), ("imag", "<f8")])
+                data["real"], data["imag"] = value.real, value.imag
+                cls = "double"
+            else:
+                data, cls = np.atleast_2d(value).T, {np.dtype(np.float32): "single", np.dtype(np.int32): "int32"}.get(np.asarray(value).dtype, "double")
+            f.create_dataset(name, data=data).attrs["MATLAB_class"] = np.bytes_(cls)
+    header = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Sun Dec  6 12:00:00 2026 HDF5 schema 1.00 .".ljust(116) + bytes(8) + b"\x00\x02IM"
+    with open(path, "r+b") as f:
+        f.write(header)
+    return path

@@ -324,16 +324,23 @@ def matrices(draw) -> dict:
 
 
 def test_mat_reader_on_random_bytes_changed_files_and_any_variables() -> None:
-    """Random bytes; a real MATLAB file with bytes changed or cut; files of variables of any value, each
-    read whole and part by part."""
+    """Random bytes; a real MATLAB file, v5 or v7.3 (HDF5), with bytes changed or cut; files of
+    variables of any value, each read whole and part by part."""
     import io
 
-    from scipy.io import savemat
+    from recorded_bags import savemat_v73
+    from scipy.io import loadmat, savemat
 
     source = _mat_file()
     assert read_recording(f"{_write('real.mat', source)}:traj1", arm="left", note=None).side == "left"
-    changed = st.tuples(st.integers(0, len(source) - 1), st.binary(min_size=1, max_size=8)).map(lambda c: source[: c[0]] + c[1] + source[c[0] + len(c[1]) :])
-    cut = st.integers(0, len(source) - 1).map(lambda n: source[:n])
+    scratch = Path(tempfile.mkdtemp(prefix="baxter-fuzz-v73-"))
+    v73 = savemat_v73(scratch / "v73.mat", loadmat(_write("real.mat", source), variable_names=["traj1", "X_train", "Y_train"])).read_bytes()
+    assert read_recording(f"{_write('v73.mat', v73)}:traj1", arm="left", note=None).side == "left"
+    sources = st.sampled_from([source, v73])
+    changed = st.tuples(sources, st.floats(0, 1, exclude_max=True), st.binary(min_size=1, max_size=8)).map(
+        lambda c: c[0][: int(c[1] * len(c[0]))] + c[2] + c[0][int(c[1] * len(c[0])) + len(c[2]) :]
+    )
+    cut = st.tuples(sources, st.floats(0, 1, exclude_max=True)).map(lambda c: c[0][: int(c[1] * len(c[0]))])
 
     def saved(variables: dict) -> bytes:
         buffer = io.BytesIO()

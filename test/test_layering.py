@@ -7,7 +7,7 @@
 | diagnosis | core, simulation | numpy, numba, scipy, yaml, matplotlib |
 | ros | everything above, msg_adapters | rclpy and ROS messages |
 | cli | everything | everything |
-| msg_adapters | core's records (recording, samples, joints), plausibility, output_files, errors | rosbags, pyarrow, scipy.io (MATLAB files), rclpy messages |
+| msg_adapters | core's records (recording, samples, joints), plausibility, output_files, errors | rosbags, pyarrow, scipy.io and h5py (MATLAB files), rclpy messages |
 
 Two checks: every import statement in a layer's source, wherever it stands (a function's lazy
 import too), names only what the table allows; and importing each module of core, monitoring,
@@ -52,7 +52,7 @@ OTHERS = {
     "simulation": {"numpy", "numba", "scipy", "yaml"},
     "diagnosis": {"numpy", "numba", "scipy", "yaml", "matplotlib"},
     "ros": {"numpy", "yaml"} | ROS_MESSAGES,
-    "msg_adapters": {"numpy", "numba", "rosbags", "pyarrow", "scipy"} | ROS_MESSAGES,  # numba: the live reader of CDR bytes; scipy: scipy.io for MATLAB files
+    "msg_adapters": {"numpy", "numba", "rosbags", "pyarrow", "scipy", "h5py"} | ROS_MESSAGES,  # numba: the live reader of CDR bytes; scipy.io and h5py: MATLAB files
 }
 #: What importing a module of these layers must not load.
 FORBIDDEN_AT_IMPORT = ("rclpy", "msg_adapters", *ROS_MESSAGES)

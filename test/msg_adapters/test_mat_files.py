@@ -1,6 +1,7 @@
-"""MATLAB files of recordings, written here with scipy.io.savemat in the layouts robot-learning
-datasets publish (BaxterDirectDynamics' 35 columns per trajectory, BaxterRand's X/Y pairs, the
-SARCOS 28 columns), read back through ``read_recording`` and the commands."""
+"""MATLAB files of recordings, written here with scipy.io.savemat (v5) and as MATLAB's v7.3 (HDF5,
+:func:`savemat_v73`) in the layouts robot-learning datasets publish (BaxterDirectDynamics' 35
+columns per trajectory, BaxterRand's X/Y pairs, the SARCOS 28 columns), read back through
+``read_recording`` and the commands."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from cli_runs import listing, run_cli, the_error
-from recorded_bags import columns, joint_states
+from recorded_bags import columns, joint_states, savemat_v73
 from reference_models import pinocchio_from_arm
 from scipy.io import savemat
 
@@ -89,9 +90,12 @@ def test_files_that_hold_no_recording_are_refused_saying_what_they_hold(tmp_path
     savemat(path, {"X_train": np.zeros((10, 21)), "torques": np.zeros((10, 6)), "label": "ur10"})
     with pytest.raises(RecordingFileError, match=r"no recording in this MATLAB file \(holds X_train 10×21 double, torques 10×6 double, label 1 char\)"):
         read_recording(path, arm="left")
-    v73 = tmp_path / "v73.mat"  # MATLAB's v7.3 header, then HDF5
+    v73 = tmp_path / "v73.mat"  # MATLAB's v7.3 header, then HDF5 cut short
     v73.write_bytes(b"MATLAB 7.3 MAT-file, HDF5 schema 1.00 .".ljust(116) + bytes(8) + b"\x00\x02IM" + b"\x89HDF\r\n\x1a\n" + bytes(400))
-    with pytest.raises(RecordingFileError, match=r"v73.mat: a MATLAB v7.3 file \(HDF5\), which is not read; save its variables with save\(\.\.\., '-v7'\)"):
+    with pytest.raises(RecordingFileError, match=r"v73.mat: a MATLAB v7.3 file whose HDF5 cannot be read \("):
+        read_recording(v73, arm="left")
+    savemat_v73(v73, {"X_train": np.zeros((10, 21)), "torques": np.zeros((10, 6)), "label": "ur10", "meta": {"rate": 100.0}})
+    with pytest.raises(RecordingFileError, match=r"no recording in this MATLAB file \(holds X_train 10×21 double, label 1×4 char, meta struct, torques 10×6 double\)"):
         read_recording(v73, arm="left")
     text = tmp_path / "text.mat"
     text.write_text("q qd tau\n1 2 3\n")
@@ -196,6 +200,36 @@ def test_complex_numbers_and_a_name_given_twice_are_refused(tmp_path: Path) -> N
     twice.write_bytes(twice.read_bytes() + second.read_bytes()[128:])
     with pytest.raises(RecordingFileError, match=r"twice.mat: variable traj appears more than once in this MATLAB file"):
         read_recording(twice, arm="left")
+
+
+def test_v73_files_read_as_the_same_variables_saved_by_scipy(tmp_path: Path) -> None:
+    """Every layout, and a matrix stored transposed, saved as v7.3 (HDF5, h5py) and as v5 (scipy's
+    writer and reader, another implementation of MATLAB's format): the same parts, bit for bit;
+    single precision, text, a struct and integers beside them as MATLAB would keep them."""
+    (q, qd, tau), (q2, qd2, tau2) = arm_states(0), arm_states(1)
+    variables = {
+        "baxtertraj1": forward_dynamics(q, qd, tau),
+        "baxtertraj2": forward_dynamics(q2, qd2, tau2).T.copy(),
+        "X_test": np.hstack([q, qd, qd]),
+        "Y_test": tau,
+        "sarcos": np.hstack([q2, qd2, qd2, tau2]).astype(np.float32),
+        "square": np.hstack([q, qd, qd, tau])[:28],  # 28 samples of 28 columns: which way round is the storage's to say
+        "note": "pick and place",
+        "counts": np.arange(6, dtype=np.int32).reshape(2, 3),
+    }
+    v5, v73 = tmp_path / "v5.mat", savemat_v73(tmp_path / "v73.mat", variables)
+    savemat(v5, variables)
+    parts = [p.split(":", 1)[1] for p in map(str, recordings_in(v73))]
+    assert parts == ["baxtertraj1", "baxtertraj2", "sarcos", "square", "test"]  # HDF5's name order; test last
+    assert sorted(parts) == sorted(p.split(":", 1)[1] for p in map(str, recordings_in(v5)))
+    for part in parts:
+        a, b = (read_recording(f"{path}:{part}", arm="left", note=None) for path in (v5, v73))
+        for got, want in zip((b.q, b.qd, b.effort, b.stamps_ns), (a.q, a.qd, a.effort, a.stamps_ns)):
+            np.testing.assert_array_equal(got, want)
+    assert_read(read_recording(f"{v73}:test", arm="left", note=None), q, qd, tau)
+    savemat_v73(tmp_path / "complex.mat", {"traj": forward_dynamics(q + 1e-3j, qd, tau)})
+    with pytest.raises(RecordingFileError, match=r"complex.mat: variable traj holds complex numbers"):
+        read_recording(tmp_path / "complex.mat", arm="left")
 
 
 def test_a_folder_passes_over_a_matlab_file_of_no_recording(tmp_path: Path) -> None:
