@@ -164,7 +164,8 @@ def _sample_times_ns(
         if rate_hz is None:
             raise RecordingFileError(
                 f"{path}: has no time column, and its sample rate cannot be estimated: the velocities do not "
-                "match the positions' steps; pass --rate-hz"
+                "match the positions' steps (rows out of time order, or velocities of other positions); pass --rate-hz "
+                "if the rows are consecutive samples"
             )
     elif rate_hz is None:
         rate_hz = estimate
@@ -178,6 +179,11 @@ def _sample_times_ns(
     steps = np.ones(len(q))
     steps[0] = 0.0
     cut = jumps(q, qd, 1.0 / rate_hz, speed_bound)
+    if cut.size > 0.5 * (len(q) - 1):
+        raise RecordingFileError(
+            f"{path}: the positions jump at {cut.size} of {len(q) - 1} steps farther than the joints can move in a sample "
+            f"at {rate_hz:.4g} Hz: the rows are not consecutive samples (a table of shuffled samples?), and dynamics need them"
+        )
     steps[cut + 1] = JUMP_GAP_PERIODS
     if cut.size and note is not None:
         note(

@@ -120,6 +120,23 @@ def test_trajectories_laid_end_to_end_are_cut_where_the_positions_jump(tmp_path:
     assert any(f"jump at 1 step(s) (first after sample {N - 1})" in n for n in notes), notes
 
 
+def test_shuffled_samples_are_refused_not_cut_into_pieces(tmp_path: Path) -> None:
+    """Machine-learning datasets may shuffle their rows (samples of X/Y pairs): no rate can be
+    estimated, and with a rate given, nearly every step jumps; either way the error says the rows are
+    not consecutive samples, and nothing is written."""
+    q, qd, tau = arm_states()
+    order = np.random.default_rng(4).permutation(N)
+    path = tmp_path / "shuffled.mat"
+    savemat(path, {"X": np.hstack([q, qd, np.zeros_like(q)])[order], "Y": tau[order]})
+    with pytest.raises(RecordingFileError, match=r"shuffled.mat: has no time column, and its sample rate cannot be estimated: .*rows out of time order"):
+        read_recording(path, arm="left")
+    with pytest.raises(RecordingFileError, match=rf"shuffled.mat: the positions jump at \d+ of {N - 1} steps .* the rows are not consecutive samples"):
+        read_recording(path, arm="left", rate_hz=RATE_HZ)
+    done = run_cli("process", path, "--arm", "left", "--rate-hz", "100", "--out", tmp_path / "out.csv")
+    assert "the rows are not consecutive samples" in the_error(done)
+    assert listing(tmp_path) == ["shuffled.mat"]
+
+
 def test_jumps_are_steps_beyond_what_the_top_speed_covers() -> None:
     period = 0.01
     q = np.zeros((6, 2))
