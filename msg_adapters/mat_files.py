@@ -27,7 +27,8 @@ with no recording names what it holds. Refused: complex numbers; a variable name
 MATLAB's v7.3 files (HDF5, what ``save -v7.3`` writes and files over 2 GB need) are read with h5py:
 each top-level dataset is a variable, its MATLAB class in the attribute ``MATLAB_class``, stored
 column-major (an N×35 matrix as a dataset of shape (35, N)); groups (structs), references and empty
-variables are not recordings. Their variables come in name order (HDF5's), not saving order.
+variables are not recordings. Variables come in the order the file lists them (by name where it
+keeps no creation order).
 """
 
 from __future__ import annotations

@@ -237,7 +237,7 @@ def test_v73_files_read_as_the_same_variables_saved_by_scipy(tmp_path: Path) -> 
     v5, v73 = tmp_path / "v5.mat", savemat_v73(tmp_path / "v73.mat", variables)
     savemat(v5, variables)
     parts = [p.split(":", 1)[1] for p in map(str, recordings_in(v73))]
-    assert parts == ["baxtertraj1", "baxtertraj2", "sarcos", "square", "test"]  # HDF5's name order; test last
+    assert parts == ["baxtertraj1", "baxtertraj2", "sarcos", "square", "test"]  # by name (no creation order kept); test last
     assert sorted(parts) == sorted(p.split(":", 1)[1] for p in map(str, recordings_in(v5)))
     for part in parts:
         a, b = (read_recording(f"{path}:{part}", arm="left", note=None) for path in (v5, v73))
