@@ -188,14 +188,15 @@ def write_rostopic_table(path: Path, states: dict, names: Sequence[str] = BAXTER
     return path
 
 
-def savemat_v73(path: Path, variables: dict) -> Path:
+def savemat_v73(path: Path, variables: dict, track_order: bool = False) -> Path:
     """A MATLAB v7.3 file as MATLAB writes one: a 512-byte user block holding the MAT header (text,
     version 0x0200, "IM"), then HDF5 with one dataset per variable, column-major (a MATLAB N×M matrix
     is a dataset of shape (M, N)), its class in the attribute MATLAB_class; complex numbers as a
-    compound of real and imag; text as uint16 characters; a struct as a group."""
+    compound of real and imag; text as uint16 characters; a struct as a group. track_order: keep the
+    variables' creation order in the file (HDF5 lists them by name otherwise)."""
     import h5py
 
-    with h5py.File(path, "w", userblock_size=512) as f:
+    with h5py.File(path, "w", userblock_size=512, track_order=track_order) as f:
         for name, value in variables.items():
             if isinstance(value, dict):
                 group = f.create_group(name)

@@ -239,6 +239,8 @@ def test_v73_files_read_as_the_same_variables_saved_by_scipy(tmp_path: Path) -> 
     parts = [p.split(":", 1)[1] for p in map(str, recordings_in(v73))]
     assert parts == ["baxtertraj1", "baxtertraj2", "sarcos", "square", "test"]  # by name (no creation order kept); test last
     assert sorted(parts) == sorted(p.split(":", 1)[1] for p in map(str, recordings_in(v5)))
+    ordered = savemat_v73(tmp_path / "ordered.mat", {"trajB": variables["baxtertraj1"], "trajA": variables["sarcos"]}, track_order=True)
+    assert [str(p).rsplit(":", 1)[1] for p in recordings_in(ordered)] == ["trajB", "trajA"]  # saving order, where the file keeps it
     for part in parts:
         a, b = (read_recording(f"{path}:{part}", arm="left", note=None) for path in (v5, v73))
         for got, want in zip((b.q, b.qd, b.effort, b.stamps_ns), (a.q, a.qd, a.effort, a.stamps_ns)):
