@@ -81,10 +81,12 @@ def _hdf5_variables(path: Path) -> Iterator[tuple[str, tuple[int, ...], str, Any
                 continue
             cls = item.attrs.get("MATLAB_class", b"")
             cls = cls.decode(errors="replace") if isinstance(cls, bytes) else str(cls)
-            if not isinstance(item, h5py.Dataset) or item.attrs.get("MATLAB_empty", 0):
-                yield name, (), cls if not isinstance(item, h5py.Dataset) else "empty", item
-                continue
-            yield name, tuple(item.shape[::-1]), cls, item
+            if not isinstance(item, h5py.Dataset):  # a struct (a group)
+                yield name, (), cls, item
+            elif item.attrs.get("MATLAB_empty", 0):  # its data are the dimensions, not values
+                yield name, (), "empty", item
+            else:
+                yield name, tuple(item.shape[::-1]), cls, item
 
 
 def _contents(path: Path) -> list[tuple[str, tuple[int, ...], str]]:

@@ -177,6 +177,14 @@ class _Rows:
         self.pending = {}
 
 
+def _leading_texts(fields: list[str]) -> int:
+    """How many of a row's fields, from the first on, are not numbers (names, a frame_id's pieces)."""
+    k = 0
+    while k < len(fields) and not _is_number(fields[k]):
+        k += 1
+    return k
+
+
 def _split_names(rest: str, previous: tuple[str, ...]) -> tuple[tuple[str, ...], str]:
     """(names, the text of the numbers after them) of a row's fields from field.name0 on; the
     previous row's names are tried first (the common case: every message names the same joints)."""
@@ -184,9 +192,7 @@ def _split_names(rest: str, previous: tuple[str, ...]) -> tuple[tuple[str, ...],
     if previous and rest.startswith(prefix) and _is_number(rest[len(prefix) :].split(",", 1)[0]):
         return previous, rest[len(prefix) :]
     fields = rest.split(",")
-    m = 0
-    while m < len(fields) and not _is_number(fields[m]):
-        m += 1
+    m = _leading_texts(fields)
     return tuple(fields[:m]), ",".join(fields[m:])
 
 
@@ -195,9 +201,7 @@ def _frame_id_commas(rest: str, m: int, layout: _Layout) -> int:
     gives: rostopic prints the frame_id as it is, so each comma in it puts one more field that is
     not a number before the names. 0 when the row's numbers do not fit m names in the layout."""
     fields = rest.split(",")
-    k = 0
-    while k < len(fields) and not _is_number(fields[k]):
-        k += 1
+    k = _leading_texts(fields)
     return k - m if k > m and len(fields) - k == layout.count * m + layout.trailing else 0
 
 

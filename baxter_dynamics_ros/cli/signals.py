@@ -22,10 +22,10 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from types import FrameType
 
-__all__ = ["ENDINGS", "Terminated", "command_running", "end", "install", "received", "signals_deferred"]
+__all__ = ["Terminated", "command_running", "end", "install", "received", "signals_deferred"]
 
 #: signal -> (the one line printed, the exit status)
-ENDINGS = {signal.SIGINT: ("ERROR: interrupted", 130), signal.SIGTERM: ("ERROR: terminated (SIGTERM)", 128 + signal.SIGTERM)}
+_ENDINGS = {signal.SIGINT: ("ERROR: interrupted", 130), signal.SIGTERM: ("ERROR: terminated (SIGTERM)", 128 + signal.SIGTERM)}
 #: Whether a command is running (a signal unwinds it) rather than starting (a signal ends the process).
 _running = False
 #: The signal that stopped the command (SIGINT or SIGTERM), None while none came.
@@ -57,7 +57,7 @@ def _on_signal(signum: int, frame: FrameType | None) -> None:
         return
     _ignore_further()
     if not _running:
-        line, status = ENDINGS[signum]
+        line, status = _ENDINGS[signum]
         os.write(2, line.encode() + b"\n")
         os._exit(status)
     if _received is None:
@@ -68,7 +68,7 @@ def _on_signal(signum: int, frame: FrameType | None) -> None:
 def _ignore_further() -> None:
     """A second signal does not interrupt the cleanup (not SIG_IGN: a process spawned meanwhile
     would inherit it, and SIGTERM could not stop it)."""
-    for later in ENDINGS:
+    for later in _ENDINGS:
         signal.signal(later, _ignored)
 
 
@@ -104,7 +104,7 @@ def command_running() -> Iterator[None]:
     """The block in which the command runs: a signal unwinds it instead of ending the process. The
     handlers are put in place again first (a library imported meanwhile may have put its own)."""
     global _running
-    for signum in ENDINGS:
+    for signum in _ENDINGS:
         signal.signal(signum, _on_signal)
     _running = True
     try:
@@ -115,7 +115,7 @@ def command_running() -> Iterator[None]:
 
 def end(signum: int) -> None:
     """Print the signal's one line and exit with its status."""
-    line, status = ENDINGS[signum]
+    line, status = _ENDINGS[signum]
     print(line, file=sys.stderr)
     sys.stdout.flush()
     sys.stderr.flush()
@@ -135,7 +135,7 @@ def install(module_name: str) -> None:
     if module_name == "__mp_main__" or "--multiprocessing-fork" in getattr(sys, "orig_argv", ()):
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         return
-    for signum in ENDINGS:
+    for signum in _ENDINGS:
         signal.signal(signum, _on_signal)
     # multiprocessing's resource tracker (a process of its own, started with this interpreter's -W
     # options) removes the semaphores of worker pools that an exit on a signal left, and would say so
