@@ -10,7 +10,8 @@ recordings must be free of contacts: every residual they hold is taken as normal
 :data:`~baxter_dynamics_ros.core.recording.MIN_RECORDING_S` and
 :data:`~baxter_dynamics_ros.core.recording.MIN_RECORDING_SAMPLES` samples, all of them
 :data:`~baxter_dynamics_ros.core.recording.MIN_FIT_S` together, and the arm must move and have effort
-(the readers). Never imports rclpy.
+(the readers); one too short that was not named (:func:`~.inputs.too_short_found`) is passed over.
+Never imports rclpy.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import argparse
 from pathlib import Path
 
 from ..errors import CollisionError, RecordingError
-from .inputs import expand_inputs
+from .inputs import expand_inputs, too_short_found
 from .paths import check_paths
 
 
@@ -68,12 +69,16 @@ def run(args: argparse.Namespace) -> int:
     from ..monitoring.calibration import calibrate
     from ..monitoring.thresholds import require_plausible, write_thresholds
 
-    args.files = expand_inputs(args.files)
+    given, args.files = args.files, expand_inputs(args.files)
     check_paths(args.files, [args.out])
     if args.out.suffix not in (".yaml", ".yml"):
         raise CollisionError(f"{args.out}: the thresholds file must end in .yaml")
     check_outputs([args.out], replace=args.force)
     recordings = [read_recording(p, topic=args.topic, arm=args.arm, rate_hz=args.rate_hz) for p in args.files]
+    passed = too_short_found(args.files, [(len(rec), rec.span_s) for rec in recordings], given)
+    if all(passed):
+        raise CollisionError("every recording given is too short for a calibration (passed over above)")
+    args.files, recordings = ([x for x, p in zip(items, passed) if not p] for items in (args.files, recordings))
     try:
         require_length(list(zip(map(str, args.files), recordings)), "calibration", MIN_FIT_S)
     except RecordingError as err:

@@ -9,7 +9,8 @@ Parameters are fitted on ``--train`` only; every "after" figure is measured on `
 contiguous blocks, never interleaved samples). Refused: a recording given twice (the same file, or
 the same samples, in ``--train`` and ``--test`` or twice in ``--train``); a recording shorter than
 :data:`~baxter_dynamics_ros.core.recording.MIN_RECORDING_S` or with fewer than
-:data:`~baxter_dynamics_ros.core.recording.MIN_RECORDING_SAMPLES` samples; training data shorter than
+:data:`~baxter_dynamics_ros.core.recording.MIN_RECORDING_SAMPLES` samples (one not named but found in a
+folder, by a pattern or in a MATLAB file of several is passed over: :func:`~.inputs.too_short_found`); training data shorter than
 :data:`~baxter_dynamics_ros.core.recording.MIN_FIT_S` in all; an arm that does not move or has no effort
 (the readers). Writes ``DIR/diagnosis.json``, ``DIR/report.html``
 with its PNG plots and ``DIR/effects.yaml`` (for the node's ``effects_file``). Never imports rclpy.
@@ -26,7 +27,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..errors import DiagnosisError
-from .inputs import expand_inputs
+from .inputs import expand_inputs, too_short_found
 from .paths import check_paths
 from .workers import add_worker_arguments, check_scheduler, file_mapper
 
@@ -89,21 +90,27 @@ def _diagnose(
     def source(path: Path) -> RecordingFile:
         return RecordingFile(str(path), str(path), args.topic, args.arm, args.rate_hz, scratch=scratch)
 
-    train, test = ([source(p) for p in paths] for _, paths in given)
-    seen = mapper(inspect, [*train, *test])
+    sources = [(option, source(p)) for option, paths in given for p in paths]
+    seen = mapper(inspect, [s for _, s in sources])
     for info in seen:
         for note in info.notes:
             print(note, file=sys.stderr)
-    sides = {info.side for info in seen}
+    passed = too_short_found([p for _, paths in given for p in paths], [(i.samples, i.span_s) for i in seen], [*args.train, *args.test])
+    for option, paths in given:
+        if paths and all(p for p, (o, _) in zip(passed, sources) if o == option):
+            raise DiagnosisError(f"{option}: every recording in it is too short for the diagnosis (passed over above)")
+    kept = [(option, s, info) for (option, s), info, p in zip(sources, seen, passed) if not p]
+    sides = {info.side for _, _, info in kept}
     if len(sides) > 1:
         raise DiagnosisError("the recordings are of different arms; pass --arm right|left")
-    options = ["--train"] * len(train) + ["--test"] * len(test)
-    _refuse_repeats([(o, s.label, info.digest) for o, s, info in zip(options, [*train, *test], seen)], "holds the same samples as")
+    _refuse_repeats([(option, s.label, info.digest) for option, s, info in kept], "holds the same samples as")
+    train, test = ([s for o, s, _ in kept if o == option] for option, _ in given)
     if not test:
         if len(train) > 1:
             test = [train.pop()]
         else:
-            train, test = _split_last_quarter(train[0], seen[0].samples, seen[0].span_s)
+            lone = kept[0][2]
+            train, test = _split_last_quarter(train[0], lone.samples, lone.span_s)
     arm = load_arm_model(args.model if args.model is not None else sides.pop())
     bar = ProgressBar("diagnosis", show)
     try:

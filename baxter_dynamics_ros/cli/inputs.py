@@ -10,17 +10,22 @@ of folders of bags would mix unrelated sessions by accident); a pattern with ``*
 that the shell left unexpanded (quoted) is expanded here, sorted, each match as above. A folder or
 pattern that yields no recording is refused (RecordingFileError); a path that does not exist is
 left for :func:`~baxter_dynamics_ros.cli.paths.check_paths` to refuse.
+
+A recording too short for the offline methods that the user did not name (found in a folder, by a
+pattern, or one part of a MATLAB file of several) is passed over with a note
+(:func:`too_short_found`); one named is refused by the method, as it cannot be used.
 """
 
 from __future__ import annotations
 
 import glob
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 
 from ..errors import RecordingFileError
 
-__all__ = ["expand_inputs"]
+__all__ = ["expand_inputs", "too_short_found"]
 
 _PATTERN_CHARACTERS = frozenset("*?[")
 
@@ -61,3 +66,24 @@ def _recordings_at(path: Path, *, quiet: bool) -> list[Path]:
     if not found and not quiet:
         raise RecordingFileError(f"{path}: a folder with no recording in it ({_kinds()}); give files, bag folders or a folder of them")
     return found
+
+
+def too_short_found(paths: Sequence[Path], sizes: Sequence[tuple[int, float]], given: Sequence[Path]) -> list[bool]:
+    """For each expanded input of ``paths`` with its (samples, span in s) of ``sizes``: True where it
+    is passed over — shorter than :data:`~baxter_dynamics_ros.core.recording.MIN_RECORDING_S` or
+    :data:`~baxter_dynamics_ros.core.recording.MIN_RECORDING_SAMPLES` and not one of ``given`` (the
+    arguments as typed) — each said on stderr."""
+    from ..core.recording import MIN_RECORDING_S, MIN_RECORDING_SAMPLES
+
+    named = {str(p) for p in given}
+    out = []
+    for path, (samples, span_s) in zip(paths, sizes):
+        short = (samples < MIN_RECORDING_SAMPLES or span_s < MIN_RECORDING_S) and str(path) not in named
+        if short:
+            print(
+                f"{path}: passed over, too short: {samples} samples, {span_s:.2f} s; a recording needs at least "
+                f"{MIN_RECORDING_SAMPLES} samples and {MIN_RECORDING_S:g} s",
+                file=sys.stderr,
+            )
+        out.append(short)
+    return out

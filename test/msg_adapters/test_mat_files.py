@@ -5,6 +5,8 @@ columns per trajectory, BaxterRand's X/Y pairs, the SARCOS 28 columns), read bac
 
 from __future__ import annotations
 
+import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -177,6 +179,38 @@ def test_the_commands_take_each_recording_of_a_matlab_file(tmp_path: Path) -> No
     one_file = the_error(run_cli("process", path, "--arm", "left", "--out", tmp_path / "all.csv"))
     assert one_file.startswith(f"ERROR: {tmp_path / 'all.csv'}: names a file, but the input stands for 3 recordings ({path}:t0, {path}:t1, {path}:t2)")
     assert listing(tmp_path) == before
+
+
+def test_a_part_too_short_is_passed_over_when_found_and_refused_when_named(tmp_path: Path) -> None:
+    rnea = pinocchio_from_arm(load_arm_model("left")).rnea
+
+    def followed(q, qd, tau):
+        qdd = np.gradient(qd, axis=0) * RATE_HZ
+        return q, qd, 0.05 * tau + np.array([rnea(*x) for x in zip(q, qd, qdd)])
+
+    long = [forward_dynamics(*followed(*arm_states(seed, n=1500))) for seed in range(3)]
+    short = forward_dynamics(*followed(*arm_states(7, n=151)))  # 150 samples, 1.5 s: too short to diagnose
+    path = tmp_path / "picks.mat"
+    savemat(path, {"t0": long[0], "t1": short, "t2": long[1], "t3": long[2]})
+    out = tmp_path / "diagnosis"
+    done = run_cli("diagnose", "--train", path, "--arm", "left", "--out", out, "--jobs", "1")
+    assert done.returncode == 0, done.stderr
+    assert re.search(rf"{re.escape(str(path))}:t1: passed over, too short: 150 samples, 1\.[45]\d s; a recording needs at least 200 samples and 2 s\n", done.stderr)
+    report = json.loads((out / "diagnosis.json").read_text())
+    assert (report["train_files"], report["test_files"]) == ([f"{path}:t0", f"{path}:t2"], [f"{path}:t3"])
+    calibrated = run_cli("calibrate", path, "--arm", "left", "--out", tmp_path / "thresholds.yaml")
+    assert calibrated.returncode == 0 and f"{path}:t1: passed over, too short" in calibrated.stderr, calibrated.stderr
+    before = listing(tmp_path)
+    named = run_cli("diagnose", "--train", f"{path}:t0", f"{path}:t1", "--test", f"{path}:t3", "--arm", "left", "--out", tmp_path / "d")
+    assert re.fullmatch(rf"ERROR: {re.escape(str(path))}:t1: 150 samples, 1\.[45]\d s; a training recording needs at least 200 samples and 2 s", the_error(named))
+    only_short = tmp_path / "short" / "one.mat"
+    only_short.parent.mkdir()
+    savemat(only_short, {"a": short, "b": forward_dynamics(*followed(*arm_states(8, n=151)))})
+    refused = run_cli("diagnose", "--train", path, "--test", only_short, "--arm", "left", "--out", tmp_path / "d")
+    assert the_error(refused) == "ERROR: --test: every recording in it is too short for the diagnosis (passed over above)"
+    refused = run_cli("calibrate", only_short.parent, "--arm", "left", "--out", tmp_path / "t.yaml")
+    assert the_error(refused) == "ERROR: every recording given is too short for a calibration (passed over above)"
+    assert listing(tmp_path) == sorted(before + ["short", "short/one.mat"])
 
 
 def test_the_parts_of_a_file_are_named_and_ordered_without_clashes(tmp_path: Path) -> None:
