@@ -76,9 +76,9 @@ def run(args: argparse.Namespace) -> int:
     check_outputs([args.out], replace=args.force)
     recordings = [read_recording(p, topic=args.topic, arm=args.arm, rate_hz=args.rate_hz) for p in args.files]
     passed = too_short_found(args.files, [(len(rec), rec.span_s) for rec in recordings], given)
-    if all(passed):
+    if len(passed) == len(recordings):
         raise CollisionError("every recording given is too short for a calibration (passed over above)")
-    args.files, recordings = ([x for x, p in zip(items, passed) if not p] for items in (args.files, recordings))
+    args.files, recordings = ([x for k, x in enumerate(items) if k not in passed] for items in (args.files, recordings))
     try:
         require_length(list(zip(map(str, args.files), recordings)), "calibration", MIN_FIT_S)
     except RecordingError as err:

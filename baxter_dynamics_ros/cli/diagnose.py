@@ -23,6 +23,7 @@ import sys
 import tempfile
 from collections.abc import Hashable
 from contextlib import ExitStack
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -97,9 +98,9 @@ def _diagnose(
             print(note, file=sys.stderr)
     passed = too_short_found([p for _, paths in given for p in paths], [(i.samples, i.span_s) for i in seen], [*args.train, *args.test])
     for option, paths in given:
-        if paths and all(p for p, (o, _) in zip(passed, sources) if o == option):
+        if paths and all(k in passed for k, (o, _) in enumerate(sources) if o == option):
             raise DiagnosisError(f"{option}: every recording in it is too short for the diagnosis (passed over above)")
-    kept = [(option, s, info) for (option, s), info, p in zip(sources, seen, passed) if not p]
+    kept = [(option, s, info) for k, ((option, s), info) in enumerate(zip(sources, seen)) if k not in passed]
     sides = {info.side for _, _, info in kept}
     if len(sides) > 1:
         raise DiagnosisError("the recordings are of different arms; pass --arm right|left")
@@ -114,7 +115,8 @@ def _diagnose(
     arm = load_arm_model(args.model if args.model is not None else sides.pop())
     bar = ProgressBar("diagnosis", show)
     try:
-        return diagnose(arm, train, test, progress=bar, mapper=mapper)
+        result = diagnose(arm, train, test, progress=bar, mapper=mapper)
+        return replace(result, passed_over={sources[k][1].label: why for k, why in passed.items()})
     finally:
         bar.close()
 
@@ -145,8 +147,6 @@ def _file_id(path: Path) -> tuple[int, int, str | None]:
 
 def _split_last_quarter(source, samples: int, span_s: float):
     """A lone recording as ([its first three quarters], [its last quarter]), whole contiguous parts."""
-    from dataclasses import replace
-
     from ..core.recording import MIN_RECORDING_S, MIN_RECORDING_SAMPLES
 
     cut = (3 * samples) // 4

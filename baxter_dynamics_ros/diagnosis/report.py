@@ -252,12 +252,13 @@ def _html(result: DiagnosisResult, plots: dict[str, Path]) -> str:
     )
     files = lambda xs: ", ".join(html.escape(x) for x in xs)  # noqa: E731
     search = "".join(f"<li>{html.escape(m)}</li>" for m in result.search) or "<li>no move lowered the score</li>"
+    passed = "".join(f"<br>\nPassed over, too short: {html.escape(label)} ({html.escape(why)})." for label, why in result.passed_over.items())
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>Baxter gap diagnosis</title><style>{style}</style></head><body>
 <h1>Sim-to-real gap diagnosis — {html.escape(result.arm_side)} arm</h1>
 {top}
 <p>Fitted on: {files(result.train_files)} (cross-validation: {html.escape(result.holdout)}, {result.folds} folds).<br>
-Measured on held-out data: {files(result.test_files)}. No parameter and no selection below used it.</p>
+Measured on held-out data: {files(result.test_files)}. No parameter and no selection below used it.{passed}</p>
 <h2>Where the gap lies</h2>
 <p>Residual = measured effort − rigid-body model with the paper's q̈ (first difference of q̇), on the test data.
 The systematic part is what a zero-phase 2 Hz low-pass keeps; the rest is noise, mostly of the

@@ -104,6 +104,8 @@ class DiagnosisResult:
     gap_filtered: GapSummary  # the same with the denoised q̈
     search: tuple[str, ...]  # the selection's moves, in order
     test_series: dict[str, np.ndarray] = field(repr=False)
+    #: recordings found but too short to use (label: why), left out before the diagnosis
+    passed_over: dict[str, str] = field(default_factory=dict)
 
     def selected(self) -> tuple[EffectReport, ...]:
         return tuple(e for e in self.effects if e.selected)
@@ -149,6 +151,7 @@ class DiagnosisResult:
             "joints": list(self.joint_names),
             "train_files": list(self.train_files),
             "test_files": list(self.test_files),
+            "passed_over": dict(self.passed_over),
             "holdout": self.holdout,
             "folds": self.folds,
             "q_ddot_cutoff_hz": self.cutoff_hz,

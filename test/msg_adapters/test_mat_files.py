@@ -198,6 +198,8 @@ def test_a_part_too_short_is_passed_over_when_found_and_refused_when_named(tmp_p
     assert re.search(rf"{re.escape(str(path))}:t1: passed over, too short: 150 samples, 1\.[45]\d s; a recording needs at least 200 samples and 2 s\n", done.stderr)
     report = json.loads((out / "diagnosis.json").read_text())
     assert (report["train_files"], report["test_files"]) == ([f"{path}:t0", f"{path}:t2"], [f"{path}:t3"])
+    assert list(report["passed_over"]) == [f"{path}:t1"] and report["passed_over"][f"{path}:t1"].startswith("150 samples")
+    assert f"Passed over, too short: {path}:t1 (150 samples" in (out / "report.html").read_text()
     calibrated = run_cli("calibrate", path, "--arm", "left", "--out", tmp_path / "thresholds.yaml")
     assert calibrated.returncode == 0 and f"{path}:t1: passed over, too short" in calibrated.stderr, calibrated.stderr
     before = listing(tmp_path)
