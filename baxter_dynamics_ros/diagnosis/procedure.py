@@ -64,7 +64,7 @@ from .gap_analysis import GapSummary, gap_summary, quantile_edges, wanted_bins
 from .inertial_report import inertial_params, inertial_quantities
 from .passes import Reduction, Screening, TestFigures, reduce, screen, test_figures
 from .result import DiagnosisResult, EffectReport, hidden_torque, joint_list, verdict_of
-from .selection import MIN_JOINT_GAIN, MIN_JOINT_GAIN_NM, Evaluation, Rivalry, explain_unselected, rivalries, select
+from .selection import MIN_JOINT_GAIN, MIN_JOINT_GAIN_NM, Evaluation, Rivalry, explain_joints, explain_unselected, rivalries, select
 from .sources import InMemory, Mapper, Source, serial_map
 from .statistics import Block, Candidate, ColumnLayout, Pool, active_columns, choose_cutoff, column_layout
 
@@ -263,8 +263,10 @@ def _selected_reports(ctx: Scoring, ev: Evaluation, fold_models: list[Model], ri
     n = ctx.pool.samples
     out = []
     final_test = ctx.test_rms(final)
+    not_kept = explain_joints(ctx.arm, ctx.layout, ctx.pool, ev, ctx.fitter)
     for term in final.terms:
         cand = ctx.layout.candidates[term.candidate]
+        not_at = {ctx.arm.joint_names[j]: why for j, why in not_kept.get(term.candidate, {}).items()}
         values, position = _term_values(ctx, final, ev.fit, term)
         names = cand.template.parameter_names()
         acting = position >= 0
@@ -310,13 +312,15 @@ def _selected_reports(ctx: Scoring, ev: Evaluation, fold_models: list[Model], ri
         mine = [r for r in rivals if r.selected == cand.name]
         for r in mine:
             reason += "; " + r.sentence(cand.name)
+        if not_at:
+            reason += "; not at " + "; ".join(f"{name.split('_', 1)[-1]} ({why})" for name, why in not_at.items())
         out.append(
             EffectReport(
                 name=cand.name, variant=cand.variant, selected=True, reason=reason, test_rms_before=final_test, test_rms_after=final_test,
                 params=params, params_std=params_std, joints=joints, cv_gain=gain, effect=effect,
                 folds_selected=folds_selected, folds=len(fold_models), joint_folds=joint_folds, test_verdict=verdict,
                 drift=drift, inertial=inertial, params_fold_spread=params_fold_spread, alternative_folds=alternatives,
-                not_distinguishable_from=tuple(r.rival for r in mine),
+                not_distinguishable_from=tuple(r.rival for r in mine), not_at=not_at,
             )  # fmt: skip
         )
     return out

@@ -70,6 +70,8 @@ class EffectReport:
     alternative_folds: dict[str, int] = field(default_factory=dict)
     #: the effects the training data cannot tell from this one (:class:`~.selection.Rivalry`)
     not_distinguishable_from: tuple[str, ...] = ()
+    #: a selected per-joint effect's joints where it could act but is not applied: joint name -> why
+    not_at: dict[str, str] = field(default_factory=dict)
 
     @property
     def uncertain_joints(self) -> tuple[str, ...]:
@@ -181,6 +183,7 @@ class DiagnosisResult:
                     "uncertain_joints": list(e.uncertain_joints),
                     "alternative_folds": e.alternative_folds,
                     "not_distinguishable_from": list(e.not_distinguishable_from),
+                    "not_at": e.not_at,
                     "test_rms_before": rms(e.test_rms_before),
                     "test_rms_after": rms(e.test_rms_after),
                     "test_verdict": e.test_verdict,

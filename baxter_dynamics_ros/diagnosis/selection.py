@@ -47,7 +47,7 @@ from ..core.joints import S1
 from .fit import DECORRELATION_S, Fit, Fitter, Model, Term
 from .statistics import ColumnLayout, Pool
 
-__all__ = ["Evaluation", "Rivalry", "Selection", "explain_unselected", "rivalries", "select"]
+__all__ = ["Evaluation", "Rivalry", "Selection", "explain_joints", "explain_unselected", "rivalries", "select"]
 
 #: A kept term must cut some joint's held-out squared error by this fraction and its held-out RMS
 #: by MIN_JOINT_GAIN_NM (the effort's quantisation is 0.004 N·m).
@@ -202,11 +202,29 @@ class _Search:
         """(7,) True where the held-out error falls by MIN_JOINT_GAIN and MIN_JOINT_GAIN_NM RMS, and
         falls in more than half of the folds (an effect that helps on one held-out recording and
         hurts on the other is not an effect of the robot)."""
+        return ~np.array([bool(s) for s in self.gain_shortfalls(before, after)])
+
+    def gain_shortfalls(self, before: Evaluation, after: Evaluation) -> list[str]:
+        """Per joint (7), what the held-out gain from before to after lacks of :meth:`joint_gain_ok`,
+        in words with the figures ("" where it has all)."""
         n = self.pool.samples
         rel = (before.cv - after.cv) / np.maximum(before.cv, 1e-300)
         rms = np.sqrt(np.maximum(before.cv, 0) / n) - np.sqrt(np.maximum(after.cv, 0) / n)
-        agree = 2 * np.sum(after.per_fold < before.per_fold, axis=0) > len(after.per_fold)
-        return (rel >= MIN_JOINT_GAIN) & (rms >= MIN_JOINT_GAIN_NM) & agree
+        helped = np.sum(after.per_fold < before.per_fold, axis=0)
+        folds = len(after.per_fold)
+        out = []
+        for j in range(N):
+            lacks = []
+            if rel[j] < 0:
+                lacks.append(f"raises the held-out squared error by {-rel[j]:.1%}")
+            elif rel[j] < MIN_JOINT_GAIN:
+                lacks.append(f"cuts the held-out squared error by {rel[j]:.1%}, not {MIN_JOINT_GAIN:.0%}")
+            elif rms[j] < MIN_JOINT_GAIN_NM:
+                lacks.append(f"cuts the held-out RMS by {rms[j]:.4f} N·m, not {MIN_JOINT_GAIN_NM:g}")
+            if not 2 * helped[j] > folds:
+                lacks.append(f"helps on {helped[j]} of {folds} held-out folds, not more than half")
+            out.append("; ".join(lacks))
+        return out
 
     def joint_params(self, ev: Evaluation, term: Term, joint: int) -> np.ndarray:
         """Positions of a per-joint term's parameters at one joint."""
@@ -225,16 +243,17 @@ class _Search:
         return all(len(p) == 0 or self.significant(ev, p) for p in (self.joint_params(ev, term, j) for j in term.joints))
 
     # -- moves
-    def blocked_joints(self, model: Model, candidate: int) -> set[int]:
-        """Joints where another member of the candidate's family (or another variant) already acts."""
+    def blocked_joints(self, model: Model, candidate: int) -> dict[int, str]:
+        """Joints where another member of the candidate's family (or another variant) already acts,
+        or the s1 spring spans it: joint -> what acts there, in words."""
         cand = self.layout.candidates[candidate]
-        out: set[int] = set()
+        out: dict[int, str] = {}
         if cand.spanned_by_spring and self.layout.has_spring(model):
-            out.add(S1)
+            out[S1] = "the s1 spring spans it there"
         for t in model.terms:
             other = self.layout.candidates[t.candidate]
             if t.candidate != candidate and (other.name == cand.name or other.name in cand.alternatives):
-                out |= set(t.joints) if other.kind == "joint" else set(range(N))
+                out |= dict.fromkeys(t.joints if other.kind == "joint" else range(N), f"{other.label} acts there")
         return out
 
     def try_add(self, current: Evaluation, index: int) -> tuple[str | None, Evaluation | None, str]:
@@ -264,29 +283,52 @@ class _Search:
         if not free:
             return None, None, "selected at every joint it may act on" if have else "an alternative acts at every joint"
         existing = list(have.joints) if have else []
-        wide = self.evaluate(model.with_term(Term(index, tuple(sorted(existing + free)))))
-        term = wide.model.term(index)
-        gain_ok = self.joint_gain_ok(current, wide)
-        penalty = 2.0 * cand.p_joint
-        keep, pays, significant = [], 0, 0
-        for j in free:
-            weighted_gain = self.fitter.weights[j] * (current.cv[j] - wide.cv[j]) / self.lam
-            params = self.joint_params(wide, term, j)
-            sig = bool(len(params)) and self.significant(wide, params)
-            pays += bool(weighted_gain > penalty and gain_ok[j])
-            significant += sig
-            if weighted_gain > penalty and gain_ok[j] and sig:
-                keep.append(j)
+        wide, lacks = self.joint_shortfalls(current, index, existing, free)
+        keep = [j for j in free if not any(lacks[j].values())]
         if not keep:
-            if not significant:
+            if not any(not lack["significance"] for lack in lacks.values()):
                 why = "its fitted parameters are at their bounds or within their uncertainty of zero at every joint"
-            elif not pays:
+            elif not any(not lack["gain"] and not lack["penalty"] for lack in lacks.values()):
                 why = f"at no joint does it remove {MIN_JOINT_GAIN:.0%} and {MIN_JOINT_GAIN_NM:g} N·m RMS of the held-out error, in most folds, and more than its penalty"
             else:
                 why = "where it would pay, its parameters are within their uncertainty of zero"
             return None, wide, why
         trial = wide if keep == free else self.evaluate(model.with_term(Term(index, tuple(sorted(existing + keep)))))
         return f"add {cand.label} at {self._joint_names(keep)}", trial, ""
+
+    def joint_shortfalls(self, current: Evaluation, index: int, existing: list[int], free: list[int]) -> tuple[Evaluation, dict[int, dict[str, str]]]:
+        """Per-joint candidate ``index`` added at the joints ``free`` beside those it has (``existing``):
+        the trial, and per free joint what it lacks to be kept there, in words ("" where it has it):
+        "gain" (:meth:`gain_shortfalls`), "penalty" (its weighted held-out gain against twice its
+        parameters) and "significance" (its parameters there against zero)."""
+        cand = self.layout.candidates[index]
+        wide = self.evaluate(current.model.with_term(Term(index, tuple(sorted(existing + free)))))
+        term = wide.model.term(index)
+        gains = self.gain_shortfalls(current, wide)
+        penalty = 2.0 * cand.p_joint
+        out = {}
+        for j in free:
+            weighted_gain = self.fitter.weights[j] * (current.cv[j] - wide.cv[j]) / self.lam
+            params = self.joint_params(wide, term, j)
+            out[j] = {
+                "gain": gains[j],
+                "penalty": "" if weighted_gain > penalty else f"its weighted held-out gain {weighted_gain:.3g} is not above its penalty {penalty:g}",
+                "significance": "" if len(params) and self.significant(wide, params) else "its parameters there are within their uncertainty of zero",
+            }
+        return wide, out
+
+    def not_kept_at(self, current: Evaluation, index: int) -> dict[int, str]:
+        """For a per-joint term of ``current``: why it is not at each joint it could act on but does
+        not (another member of its family there, or the first of :meth:`joint_shortfalls` that adding
+        it there lacks)."""
+        term = current.model.term(index)
+        blocked = self.blocked_joints(current.model, index)
+        free = [j for j in range(N) if j not in blocked and j not in term.joints]
+        out = {j: why for j, why in blocked.items() if j not in term.joints}
+        if free:
+            _, lacks = self.joint_shortfalls(current, index, list(term.joints), free)
+            out |= {j: next((v for v in lack.values() if v), "kept out by the search's order") for j, lack in lacks.items()}
+        return dict(sorted(out.items()))
 
     def add_moves(self, current: Evaluation) -> Iterator[tuple[str, Evaluation]]:
         for index in range(len(self.layout.candidates)):
@@ -439,6 +481,15 @@ def rivalries(arm: ArmModel, layout: ColumnLayout, pool: Pool, final: Evaluation
 def select(arm: ArmModel, layout: ColumnLayout, pool: Pool) -> Selection:
     """Run the stepwise selection on a pool of training blocks (module docstring)."""
     return _Search(arm, layout, pool).run()
+
+
+def explain_joints(arm: ArmModel, layout: ColumnLayout, pool: Pool, final: Evaluation, fitter: Fitter) -> dict[int, dict[int, str]]:
+    """For each selected per-joint effect (its candidate index): why it is not at each joint it could
+    act on but does not (joint index -> words with the figures), judged as the search would, under
+    the final model's weights."""
+    search = _Search(arm, layout, pool)
+    search.fitter = fitter
+    return {t.candidate: search.not_kept_at(final, t.candidate) for t in final.model.terms if layout.candidates[t.candidate].kind == "joint"}
 
 
 def explain_unselected(

@@ -200,6 +200,28 @@ def test_a_joint_gains_by_five_percent_a_hundredth_of_a_newton_metre_and_in_most
 
     ok = search.joint_gain_ok(evaluation(before_fold), evaluation(after_fold))
     np.testing.assert_array_equal(ok, [True, False, True, False, False, False, False])
+    # what the report says each joint lacks (not_at), with the figures above
+    assert search.gain_shortfalls(evaluation(before_fold), evaluation(after_fold)) == [
+        "",
+        "cuts the held-out squared error by 4.0%, not 5%",
+        "",
+        "helps on 1 of 2 held-out folds, not more than half",  # (30 % − 10 %) / 2 = 10 % in sum
+        "cuts the held-out squared error by 0.0%, not 5%; helps on 0 of 2 held-out folds, not more than half",
+        "helps on 1 of 2 held-out folds, not more than half",
+        "cuts the held-out RMS by 0.0030 N·m, not 0.01",  # 0.1 (1 − √0.94)
+    ]
+
+
+def test_a_selected_effect_says_why_it_is_not_at_its_other_joints(arm, friction_run) -> None:
+    """Every selected per-joint effect names each joint it could act on but does not, with a reason;
+    at a joint where it lacks nothing the search would have added it, so none says so."""
+    result, _, _ = friction_run
+    per_joint = [e for e in result.selected() if e.name in ("viscous_friction", "coulomb_friction", "torque_offset", "delay", "armature", "torque_gain", "stribeck_friction")]
+    assert per_joint
+    for e in per_joint:
+        assert set(e.not_at) == set(result.joint_names) - set(e.joints), e.name
+        assert all(why and why != "kept out by the search's order" for why in e.not_at.values()), e.not_at
+        assert all(f"{j.split('_', 1)[-1]} ({why})" in e.reason for j, why in e.not_at.items())
 
 
 def test_pure_noise_selects_nothing_physical(arm) -> None:
