@@ -313,7 +313,7 @@ def _selected_reports(ctx: Scoring, ev: Evaluation, fold_models: list[Model], ri
         for r in mine:
             reason += "; " + r.sentence(cand.name)
         if not_at:
-            reason += "; not at " + "; ".join(f"{name.split('_', 1)[-1]} ({why})" for name, why in not_at.items())
+            reason += "; " + _not_at_text(not_at)
         out.append(
             EffectReport(
                 name=cand.name, variant=cand.variant, selected=True, reason=reason, test_rms_before=final_test, test_rms_after=final_test,
@@ -397,13 +397,19 @@ def _gain_ok(before: np.ndarray, after: np.ndarray, n: int) -> np.ndarray:
     return (rel >= MIN_JOINT_GAIN) & (_rms(before, n) - _rms(after, n) >= MIN_JOINT_GAIN_NM)
 
 
+def _not_at_text(not_at: dict[str, str]) -> str:
+    """An effect's ``not_at`` (joint name -> why not there) as the end of its reason."""
+    return "not at " + "; ".join(f"{name.split('_', 1)[-1]} ({why})" for name, why in not_at.items())
+
+
 def _unselected_reports(ctx: Scoring, ev: Evaluation, selected_names: set[str], rivals: list[Rivalry]) -> list[EffectReport]:
     """Every candidate not selected: what adding it (its best variant) to the selected set would do,
     or, for a rival the data cannot tell from a selected effect, that."""
     out = []
     n = ctx.pool.samples
     final_test = ctx.test_rms(ev.model)
-    for name, (variant, trial, why) in explain_unselected(ctx.arm, ctx.layout, ctx.pool, ev, ctx.fitter).items():
+    for name, (variant, trial, why, not_kept) in explain_unselected(ctx.arm, ctx.layout, ctx.pool, ev, ctx.fitter).items():
+        not_at = {ctx.arm.joint_names[j]: reason for j, reason in not_kept.items()}
         if name in selected_names:
             continue
         rivalry = next((r for r in rivals if r.rival == name), None)
@@ -419,10 +425,13 @@ def _unselected_reports(ctx: Scoring, ev: Evaluation, selected_names: set[str], 
             continue
         gain = float(np.sum(ev.cv - trial.cv)) / n
         after = ctx.test_rms(trial.model)
+        if not_at:
+            why += "; " + _not_at_text(not_at)
         out.append(
             EffectReport(
-                name=name, variant=variant, selected=False, reason=why, test_rms_before=final_test, test_rms_after=after, cv_gain=gain, not_distinguishable_from=tie
-            )
+                name=name, variant=variant, selected=False, reason=why, test_rms_before=final_test, test_rms_after=after, cv_gain=gain,
+                not_distinguishable_from=tie, not_at=not_at,
+            )  # fmt: skip
         )
     return out
 

@@ -70,7 +70,8 @@ class EffectReport:
     alternative_folds: dict[str, int] = field(default_factory=dict)
     #: the effects the training data cannot tell from this one (:class:`~.selection.Rivalry`)
     not_distinguishable_from: tuple[str, ...] = ()
-    #: a selected per-joint effect's joints where it could act but is not applied: joint name -> why
+    #: a per-joint effect's joints where it is not applied (selected: its other joints; not selected:
+    #: every joint, where it pays at none): joint name -> why
     not_at: dict[str, str] = field(default_factory=dict)
 
     @property

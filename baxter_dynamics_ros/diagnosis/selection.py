@@ -318,16 +318,18 @@ class _Search:
         return wide, out
 
     def not_kept_at(self, current: Evaluation, index: int) -> dict[int, str]:
-        """For a per-joint term of ``current``: why it is not at each joint it could act on but does
-        not (another member of its family there, or the first of :meth:`joint_shortfalls` that adding
-        it there lacks)."""
+        """For per-joint candidate ``index``: why it is not at each joint where ``current`` does not
+        have it (another member of its family there, or the first of :meth:`joint_shortfalls` that
+        adding it there lacks)."""
         term = current.model.term(index)
+        have = term.joints if term is not None else ()
         blocked = self.blocked_joints(current.model, index)
-        free = [j for j in range(N) if j not in blocked and j not in term.joints]
-        out = {j: why for j, why in blocked.items() if j not in term.joints}
+        free = [j for j in range(N) if j not in blocked and j not in have]
+        out = {j: why for j, why in blocked.items() if j not in have}
         if free:
-            _, lacks = self.joint_shortfalls(current, index, list(term.joints), free)
-            out |= {j: next((v for v in lack.values() if v), "kept out by the search's order") for j, lack in lacks.items()}
+            _, lacks = self.joint_shortfalls(current, index, list(have), free)
+            passes = "passes each per-joint check there, yet adding it there does not lower the score enough"
+            out |= {j: next((v for v in lack.values() if v), passes) for j, lack in lacks.items()}
         return dict(sorted(out.items()))
 
     def add_moves(self, current: Evaluation) -> Iterator[tuple[str, Evaluation]]:
@@ -494,13 +496,15 @@ def explain_joints(arm: ArmModel, layout: ColumnLayout, pool: Pool, final: Evalu
 
 def explain_unselected(
     arm: ArmModel, layout: ColumnLayout, pool: Pool, final: Evaluation, fitter: Fitter
-) -> dict[str, tuple[str | None, Evaluation | None, str]]:
+) -> dict[str, tuple[str | None, Evaluation | None, str, dict[int, str]]]:
     """For each effect not in the final model: (variant, the trial of adding its best variant or
-    None, why it is not selected), judged as the search would, under the final model's weights."""
+    None, why it is not selected, and for a per-joint effect that pays at no joint why not at each
+    (joint index -> words, :meth:`_Search.not_kept_at`)), judged as the search would, under the
+    final model's weights."""
     search = _Search(arm, layout, pool)
     search.fitter = fitter
     selected = {layout.candidates[t.candidate].name for t in final.model.terms}
-    out: dict[str, tuple[str | None, Evaluation | None, str]] = {}
+    best: dict[str, tuple[int, str | None, Evaluation | None, str]] = {}
     for index, cand in enumerate(layout.candidates):
         if cand.name in selected:
             continue
@@ -514,8 +518,12 @@ def explain_unselected(
                 )
             else:
                 why = f"adding it to the selected set would {'lower' if change < 0 else 'raise'} the score by {abs(change):.3g}, not the {MOVE_TOLERANCE:g} a move must gain"
-        previous = out.get(cand.name)
+        previous = best.get(cand.name)
         score = trial.score if trial is not None else np.inf
-        if previous is None or (previous[1] is None and trial is not None) or (trial is not None and previous[1] is not None and score < previous[1].score):
-            out[cand.name] = (cand.variant, trial, why)
+        if previous is None or (previous[2] is None and trial is not None) or (trial is not None and previous[2] is not None and score < previous[2].score):
+            best[cand.name] = (index, label, trial, why)
+    out = {}
+    for name, (index, label, trial, why) in best.items():
+        per_joint = layout.candidates[index].kind == "joint" and label is None and trial is not None
+        out[name] = (layout.candidates[index].variant, trial, why, search.not_kept_at(final, index) if per_joint else {})
     return out

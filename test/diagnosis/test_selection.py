@@ -212,15 +212,20 @@ def test_a_joint_gains_by_five_percent_a_hundredth_of_a_newton_metre_and_in_most
     ]
 
 
-def test_a_selected_effect_says_why_it_is_not_at_its_other_joints(arm, friction_run) -> None:
-    """Every selected per-joint effect names each joint it could act on but does not, with a reason;
-    at a joint where it lacks nothing the search would have added it, so none says so."""
+def test_an_effect_says_why_it_is_not_at_a_joint(arm, friction_run) -> None:
+    """Every per-joint effect names each joint where it is not applied, with a reason that also ends
+    its ``reason``: a selected one its other joints (Coulomb friction, selected at s0 only, is refused
+    at e0 because C, without it, is hurt: 1 of 3 folds), an unselected one every joint; at a joint
+    where it lacks nothing the search would have added it, so none says so."""
     result, _, _ = friction_run
-    per_joint = [e for e in result.selected() if e.name in ("viscous_friction", "coulomb_friction", "torque_offset", "delay", "armature", "torque_gain", "stribeck_friction")]
-    assert per_joint
-    for e in per_joint:
+    per_joint = ("viscous_friction", "coulomb_friction", "torque_offset", "delay", "armature", "torque_gain", "stribeck_friction")
+    by_name = {e.name: e for e in result.effects}
+    assert by_name["coulomb_friction"].selected and by_name["coulomb_friction"].joints == ("right_s0",)
+    assert by_name["coulomb_friction"].not_at["right_e0"].endswith("helps on 1 of 3 held-out folds, not more than half")
+    assert by_name["stribeck_friction"].not_at["right_s0"] == "coulomb_friction (smoothing 0.05 rad/s) acts there"
+    for e in (by_name[name] for name in per_joint):
         assert set(e.not_at) == set(result.joint_names) - set(e.joints), e.name
-        assert all(why and why != "kept out by the search's order" for why in e.not_at.values()), e.not_at
+        assert all(why and not why.startswith("passes each per-joint check") for why in e.not_at.values()), e.not_at
         assert all(f"{j.split('_', 1)[-1]} ({why})" in e.reason for j, why in e.not_at.items())
 
 
