@@ -58,6 +58,10 @@ class Rotation:
     diagnose: np.ndarray
     plain_selected: tuple[str, ...]
     diagnose_selected: tuple[str, ...]
+    #: diagnose's selected effects → the joints (suffixes) they act on
+    diagnose_joints: dict[str, tuple[str, ...]]
+    #: diagnose's per-joint effects → {joint suffix → why it is not applied there} (its ``not_at``)
+    diagnose_not_at: dict[str, dict[str, str]]
 
 
 def datasets(root: Path = DATA) -> list[Path]:
@@ -101,6 +105,8 @@ def compare_dataset(folder: Path, *, arm: str = "left", procs: int = 2, urdf_arm
                 folder.name, test.name, tuple(f.name for f in files if f != test), plain.test_rms,
                 np.array(report["denoised"]["test_rms"], dtype=float), np.array(report["final"]["test_rms"], dtype=float),
                 plain.selected, tuple(e["name"] for e in report["effects"] if e["selected"]),
+                {e["name"]: tuple(j.split("_", 1)[-1] for j in e["joints"]) for e in report["effects"] if e["selected"]},
+                {e["name"]: {j.split("_", 1)[-1]: why for j, why in e["not_at"].items()} for e in report["effects"]},
             ))
         return out
 
@@ -115,6 +121,23 @@ def misses(rotations: Sequence[Rotation]) -> dict[tuple[str, str, str, str], str
             if r.diagnose[j] > RIGID_FACTOR * r.rigid[j] + RIGID_SLACK_NM:
                 out[(r.dataset, r.test, joint, "rigid")] = f"measured: diagnose {r.diagnose[j]:.3f} vs denoised rigid {r.rigid[j]:.3f} N·m"
     return out
+
+
+def diagnose_says(rotation: Rotation, joint: str) -> str:
+    """For each per-joint effect the plain fit applied at ``joint`` (its "name@joint" selections):
+    that ``diagnose`` applies it there too, or why it does not (its ``not_at``), or that it did not
+    select it (with no reason per joint)."""
+    out = []
+    for chosen in rotation.plain_selected:
+        name, _, at = chosen.partition("@")
+        if at != joint:
+            continue
+        name = name.split("(")[0]
+        why = rotation.diagnose_not_at.get(name, {}).get(joint)
+        if joint in rotation.diagnose_joints.get(name, ()):
+            why = "applied by diagnose too"
+        out.append(f"{chosen}: {why or 'not selected by diagnose (see its reason)'}")
+    return "; ".join(out) or "—"
 
 
 def _row(label: str, values: np.ndarray) -> str:
@@ -168,8 +191,11 @@ def page(rotations: Sequence[Rotation], elapsed_s: float) -> str:
     found = misses(rotations)
     lines += ["## Cases that miss the goal", ""]
     if found:
-        lines += ["| dataset | test | joint | against | measured |", "|---|---|---|---|---|"]
-        lines += [f"| {d} | `{t}` | {j} | {c} | {m[len('measured: '):]} |" for (d, t, j, c), m in found.items()]
+        by_test = {(r.dataset, r.test): r for r in rotations}
+        lines += ["The last column: each per-joint effect the plain fit applied at that joint, and why `diagnose` does not "
+                  "apply it there (its report's `not_at`).", "",
+                  "| dataset | test | joint | against | measured | the plain fit's effects at the joint in `diagnose` |", "|---|---|---|---|---|---|"]
+        lines += [f"| {d} | `{t}` | {j} | {c} | {m[len('measured: '):]} | {diagnose_says(by_test[d, t], j)} |" for (d, t, j, c), m in found.items()]
     else:
         lines.append("None.")
     return "\n".join(lines) + "\n"

@@ -299,6 +299,7 @@ class _Search:
     def joint_shortfalls(self, current: Evaluation, index: int, existing: list[int], free: list[int]) -> tuple[Evaluation, dict[int, dict[str, str]]]:
         """Per-joint candidate ``index`` added at the joints ``free`` beside those it has (``existing``):
         the trial, and per free joint what it lacks to be kept there, in words ("" where it has it):
+        "bound" (every parameter there held at its bound, e.g. an armature that would be negative),
         "gain" (:meth:`gain_shortfalls`), "penalty" (its weighted held-out gain against twice its
         parameters) and "significance" (its parameters there against zero)."""
         cand = self.layout.candidates[index]
@@ -311,6 +312,7 @@ class _Search:
             weighted_gain = self.fitter.weights[j] * (current.cv[j] - wide.cv[j]) / self.lam
             params = self.joint_params(wide, term, j)
             out[j] = {
+                "bound": "" if not len(params) or wide.fit.free[params].any() else "its fitted parameters there are at their bounds",
                 "gain": gains[j],
                 "penalty": "" if weighted_gain > penalty else f"its weighted held-out gain {weighted_gain:.3g} is not above its penalty {penalty:g}",
                 "significance": "" if len(params) and self.significant(wide, params) else "its parameters there are within their uncertainty of zero",

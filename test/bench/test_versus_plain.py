@@ -11,6 +11,7 @@ the test fails when one of them changes; regenerate the list with
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 from repo_paths import SHARED
 
@@ -22,6 +23,7 @@ from bench.versus_plain import (
     RIGID_SLACK_NM,
     Rotation,
     compare_dataset,
+    diagnose_says,
 )
 
 DATA = SHARED / "data"
@@ -77,3 +79,20 @@ def test_diagnose_is_never_worse(dataset: str, test: str, joint: str, against: s
     else:
         bound = RIGID_FACTOR * r.rigid[j] + RIGID_SLACK_NM
         assert r.diagnose[j] <= bound, f"diagnose {r.diagnose[j]:.3f} N·m > {bound:.3f} (denoised rigid {r.rigid[j]:.3f}); selected {r.diagnose_selected}"
+
+
+def test_the_misses_table_says_what_diagnose_did_with_the_plain_fits_effects() -> None:
+    """diagnose_says on a hand-built rotation: per "name@joint" the plain fit chose there, applied by
+    diagnose, its not_at reason, or not selected; whole effects and other joints are not listed."""
+    rotation = Rotation(
+        "d", "t.csv", ("a.csv", "b.csv"), np.ones(7), np.ones(7), np.ones(7),
+        ("s1_spring", "armature@s1", "stribeck_friction(v_s=0.02)@s1", "delay@s1", "coulomb_friction@w0"),
+        ("s1_spring", "stribeck_friction"),
+        {"s1_spring": ("s1",), "stribeck_friction": ("s1", "w2")},
+        {"armature": {"s1": "its fitted parameters there are at their bounds"}, "stribeck_friction": {"w0": "x"}, "delay": {}},
+    )  # fmt: skip
+    assert diagnose_says(rotation, "s1") == (
+        "armature@s1: its fitted parameters there are at their bounds; stribeck_friction(v_s=0.02)@s1: applied by diagnose too; "
+        "delay@s1: not selected by diagnose (see its reason)"
+    )
+    assert diagnose_says(rotation, "e1") == "—"
