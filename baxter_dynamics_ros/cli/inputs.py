@@ -70,15 +70,16 @@ def _recordings_at(path: Path, *, quiet: bool) -> list[Path]:
 
 def too_short_found(paths: Sequence[Path], sizes: Sequence[tuple[int, float]], given: Sequence[Path]) -> dict[int, str]:
     """The expanded inputs of ``paths`` (with their (samples, span in s) of ``sizes``) to pass over,
-    as {index: why}: those shorter than :data:`~baxter_dynamics_ros.core.recording.MIN_RECORDING_S`
-    or :data:`~baxter_dynamics_ros.core.recording.MIN_RECORDING_SAMPLES` and not one of ``given``
-    (the arguments as typed), each also said on stderr."""
-    from ..core.recording import MIN_RECORDING_S, MIN_RECORDING_SAMPLES
+    as {index: why}: those too short for the offline methods
+    (:func:`~baxter_dynamics_ros.core.recording.length_shortfall`) and not one of ``given`` (the
+    arguments as typed), each also said on stderr."""
+    from ..core.recording import length_shortfall
 
     named = {str(p) for p in given}
     out = {}
     for k, (path, (samples, span_s)) in enumerate(zip(paths, sizes)):
-        if (samples < MIN_RECORDING_SAMPLES or span_s < MIN_RECORDING_S) and str(path) not in named:
-            out[k] = f"{samples} samples, {span_s:.2f} s; a recording needs at least {MIN_RECORDING_SAMPLES} samples and {MIN_RECORDING_S:g} s"
-            print(f"{path}: passed over, too short: {out[k]}", file=sys.stderr)
+        short = length_shortfall(samples, span_s)
+        if short is not None and str(path) not in named:
+            out[k] = short
+            print(f"{path}: passed over, too short: {short}", file=sys.stderr)
     return out

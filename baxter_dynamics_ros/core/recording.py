@@ -31,6 +31,7 @@ __all__ = [
     "detect_arm",
     "estimate_rate_hz",
     "jumps",
+    "length_shortfall",
     "require_activity",
     "require_length",
     "require_total_span",
@@ -197,12 +198,19 @@ def require_length(recordings: Sequence[tuple[str, Recording]], what: str, total
     ``total_s`` together; ``what`` names their use in the messages (e.g. "test"). Lengths are
     :attr:`Recording.span_s`."""
     for label, rec in recordings:
-        if rec.span_s < MIN_RECORDING_S or len(rec) < MIN_RECORDING_SAMPLES:
-            raise RecordingError(
-                f"{label}: {len(rec)} samples, {rec.span_s:.2f} s; a {what} recording needs at least "
-                f"{MIN_RECORDING_SAMPLES} samples and {MIN_RECORDING_S:g} s"
-            )
+        short = length_shortfall(len(rec), rec.span_s, what)
+        if short is not None:
+            raise RecordingError(f"{label}: {short}")
     require_total_span([rec.span_s for _, rec in recordings], what, total_s)
+
+
+def length_shortfall(samples: int, span_s: float, what: str = "") -> str | None:
+    """Why a recording of ``samples`` spanning span_s (s) is too short for the offline methods
+    ("N samples, T s; a [what ]recording needs at least …"), None when it is long enough."""
+    if span_s >= MIN_RECORDING_S and samples >= MIN_RECORDING_SAMPLES:
+        return None
+    kind = f"{what} recording" if what else "recording"
+    return f"{samples} samples, {span_s:.2f} s; a {kind} needs at least {MIN_RECORDING_SAMPLES} samples and {MIN_RECORDING_S:g} s"
 
 
 def require_total_span(spans_s: Sequence[float], what: str, total_s: float) -> None:

@@ -409,9 +409,9 @@ def _unselected_reports(ctx: Scoring, ev: Evaluation, selected_names: set[str], 
     n = ctx.pool.samples
     final_test = ctx.test_rms(ev.model)
     for name, (variant, trial, why, not_kept) in explain_unselected(ctx.arm, ctx.layout, ctx.pool, ev, ctx.fitter).items():
-        not_at = {ctx.arm.joint_names[j]: reason for j, reason in not_kept.items()}
         if name in selected_names:
             continue
+        not_at = {ctx.arm.joint_names[j]: reason for j, reason in not_kept.items()}
         rivalry = next((r for r in rivals if r.rival == name), None)
         tie = (rivalry.selected,) if rivalry is not None else ()
         if rivalry is not None:

@@ -126,6 +126,13 @@ class _Search:
         self.visited: set[Model] = set()
         self.moves: list[str] = []
 
+    @classmethod
+    def judging(cls, arm: ArmModel, layout: ColumnLayout, pool: Pool, fitter: Fitter) -> _Search:
+        """A search that judges moves under ``fitter``'s weights (those of a finished selection)."""
+        search = cls(arm, layout, pool)
+        search.fitter = fitter
+        return search
+
     # -- evaluation
     def canonical(self, model: Model) -> Model:
         """With the s1 spring in a model, s1 has no offset or gain of its own (the spring spans them)."""
@@ -286,9 +293,9 @@ class _Search:
         wide, lacks = self.joint_shortfalls(current, index, existing, free)
         keep = [j for j in free if not any(lacks[j].values())]
         if not keep:
-            if not any(not lack["significance"] for lack in lacks.values()):
+            if all(lack["significance"] for lack in lacks.values()):
                 why = "its fitted parameters are at their bounds or within their uncertainty of zero at every joint"
-            elif not any(not lack["gain"] and not lack["penalty"] for lack in lacks.values()):
+            elif all(lack["gain"] or lack["penalty"] for lack in lacks.values()):
                 why = f"at no joint does it remove {MIN_JOINT_GAIN:.0%} and {MIN_JOINT_GAIN_NM:g} N·m RMS of the held-out error, in most folds, and more than its penalty"
             else:
                 why = "where it would pay, its parameters are within their uncertainty of zero"
@@ -457,8 +464,7 @@ def rivalries(arm: ArmModel, layout: ColumnLayout, pool: Pool, final: Evaluation
     """Each selected effect's unselected rivals (``RIVALS``) that explain the training data as well:
     put in its place (at its joints; the spring's rival, the offset, at s1) they change the score by
     no more than the folds' uncertainty of the difference. The best variant of each rival is tried."""
-    search = _Search(arm, layout, pool)
-    search.fitter = fitter
+    search = _Search.judging(arm, layout, pool, fitter)
     names = {layout.candidates[t.candidate].name: t for t in final.model.terms}
     out = []
     for term in final.model.terms:
@@ -491,8 +497,7 @@ def explain_joints(arm: ArmModel, layout: ColumnLayout, pool: Pool, final: Evalu
     """For each selected per-joint effect (its candidate index): why it is not at each joint it could
     act on but does not (joint index -> words with the figures), judged as the search would, under
     the final model's weights."""
-    search = _Search(arm, layout, pool)
-    search.fitter = fitter
+    search = _Search.judging(arm, layout, pool, fitter)
     return {t.candidate: search.not_kept_at(final, t.candidate) for t in final.model.terms if layout.candidates[t.candidate].kind == "joint"}
 
 
@@ -503,8 +508,7 @@ def explain_unselected(
     None, why it is not selected, and for a per-joint effect that pays at no joint why not at each
     (joint index -> words, :meth:`_Search.not_kept_at`)), judged as the search would, under the
     final model's weights."""
-    search = _Search(arm, layout, pool)
-    search.fitter = fitter
+    search = _Search.judging(arm, layout, pool, fitter)
     selected = {layout.candidates[t.candidate].name for t in final.model.terms}
     best: dict[str, tuple[int, str | None, Evaluation | None, str]] = {}
     for index, cand in enumerate(layout.candidates):
