@@ -233,6 +233,21 @@ class Effect:
         """(p,) labels of the regressor columns, e.g. ``damping_nm_s_rad[s1]``."""
         raise NotImplementedError
 
+    def parameter_lower_bounds(self) -> np.ndarray:
+        """(p,) lower bound of each parameter of :meth:`parameter_vector`: its field's ``minimum``
+        (the next float above it where the bound is strict), −inf where the field has none or the
+        parameter is no field of its own (an inertial change's link parameters)."""
+        meta = {f.name: f.metadata for f in dataclasses.fields(self)}
+        out = []
+        for label in self.parameter_names():
+            m = meta.get(label.split("[", 1)[0], {})
+            low = m.get("minimum")
+            if low is None:
+                out.append(-np.inf)
+            else:
+                out.append(float(np.nextafter(low, np.inf)) if m["strict"] else float(low))
+        return np.array(out)
+
 
 # ----------------------------------------------------------------------------- the effects
 @dataclass(frozen=True, eq=False)

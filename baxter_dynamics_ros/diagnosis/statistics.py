@@ -154,36 +154,38 @@ class ColumnLayout:
 
 def column_layout() -> ColumnLayout:
     """The candidates of the diagnosis, in the order of :data:`~baxter_dynamics_ros.core.effects.EFFECTS`."""
-    zero, free = 0.0, -np.inf
-    specs: list[tuple[str, str | None, str, Effect, int, float]] = [
-        ("torque_offset", None, "joint", TorqueOffset(offset_nm=0.0), 1, free),
-        ("viscous_friction", None, "joint", ViscousFriction(damping_nm_s_rad=0.0), 1, zero),
+    specs: list[tuple[str, str | None, str, Effect, int]] = [
+        ("torque_offset", None, "joint", TorqueOffset(offset_nm=0.0), 1),
+        ("viscous_friction", None, "joint", ViscousFriction(damping_nm_s_rad=0.0), 1),
     ]
     for eps in (0.01, 0.05):
-        specs.append(("coulomb_friction", f"smoothing {eps:g} rad/s", "joint", CoulombFriction(friction_nm=0.0, smoothing_rad_s=eps), 1, zero))
+        specs.append(("coulomb_friction", f"smoothing {eps:g} rad/s", "joint", CoulombFriction(friction_nm=0.0, smoothing_rad_s=eps), 1))
     for vs in (0.02, 0.05, 0.1, 0.2):
-        specs.append(("stribeck_friction", f"v_s {vs:g} rad/s", "joint", StribeckFriction(coulomb_nm=0.0, static_nm=0.0, stribeck_rad_s=vs), 2, zero))
-    specs.append(("s1_spring", None, "linear", S1Spring(), 4, free))
-    specs.append(("inertial_error", None, "inertial", InertialError(), 70, free))
-    specs.append(("armature", None, "joint", Armature(inertia_kgm2=0.0), 1, zero))
-    specs.append(("delay", None, "joint", Delay(delay_s=0.0), 1, free))
-    # TorqueGain's domain, gain > −1 (a sensor that reads nothing, or the opposite, has no gain error)
-    specs.append(("torque_gain", None, "joint", TorqueGain(gain=0.0), 1, float(np.nextafter(-1.0, 0.0))))
+        specs.append(("stribeck_friction", f"v_s {vs:g} rad/s", "joint", StribeckFriction(coulomb_nm=0.0, static_nm=0.0, stribeck_rad_s=vs), 2))
+    specs.append(("s1_spring", None, "linear", S1Spring(), 4))
+    specs.append(("inertial_error", None, "inertial", InertialError(), 70))
+    specs.append(("armature", None, "joint", Armature(inertia_kgm2=0.0), 1))
+    specs.append(("delay", None, "joint", Delay(delay_s=0.0), 1))
+    specs.append(("torque_gain", None, "joint", TorqueGain(gain=0.0), 1))
     candidates, blocks, start = [], [], 0
     inertial_start = 0
-    for name, variant, kind, template, p, low in specs:
+    for name, variant, kind, template, p in specs:
         width = p * N if kind == "joint" else p
         columns = np.arange(start, start + width)
+        # Each parameter's bound is its effect's own (armature, friction ≥ 0; a gain > −1: a sensor
+        # that reads nothing, or the opposite, has no gain error); an inertial change's are free.
+        lower = template.parameter_lower_bounds()
         if kind == "inertial":
             inertial_start = start
-            candidates.append(Candidate(name, kind, template, columns, np.full(width, free), variant=variant, links=tuple(range(N))))
+            candidates.append(Candidate(name, kind, template, columns, lower, variant=variant, links=tuple(range(N))))
         else:
             prior = np.array((np.inf,) + (SPRING_PRIOR_STD_NM,) * (p - 1)) if kind == "linear" else np.zeros(0)
-            candidates.append(Candidate(name, kind, template, columns, np.full(width, low), variant=variant, p_joint=p if kind == "joint" else 0, prior_std=prior))
+            candidates.append(Candidate(name, kind, template, columns, lower, variant=variant, p_joint=p if kind == "joint" else 0, prior_std=prior))
         blocks.append((template, start, width))
         start += width
     # The payload: a change of link 7's inertial parameters, the last 10 of inertial_error's columns.
-    payload = Candidate("payload", "inertial", Payload(mass_kg=1.0), np.arange(inertial_start + 60, inertial_start + 70), np.full(10, free), links=(N - 1,))
+    template = Payload(mass_kg=1.0)
+    payload = Candidate("payload", "inertial", template, np.arange(inertial_start + 60, inertial_start + 70), template.parameter_lower_bounds(), links=(N - 1,))
     index = [c.name for c in candidates].index("inertial_error")
     candidates.insert(index, payload)
     related = [

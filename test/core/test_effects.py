@@ -191,6 +191,28 @@ def test_dict_round_trip_and_joint_forms() -> None:
     assert ViscousFriction(1.0) != ViscousFriction(2.0)
 
 
+def test_lower_bounds_are_each_parameters_own() -> None:
+    """One bound per entry of parameter_vector, read from the field it belongs to: ≥ 0 for friction
+    and armature, just above −1 for a gain (strict), none for an offset, a delay, the spring and the
+    inertial parameters of a payload or a link change (no field of their own); every effect of ALL
+    lies within its bounds."""
+    arm = load_arm_model("right")
+    for effect in effects_from_dict(ALL):
+        if effect.name == "acceleration_noise":
+            continue
+        low = effect.parameter_lower_bounds()
+        assert low.shape == effect.parameter_vector(arm).shape, effect.name
+        if effect.name not in ("payload", "inertial_error"):
+            assert np.all(effect.parameter_vector(arm) >= low), effect.name
+    stribeck = StribeckFriction(coulomb_nm=0.1, static_nm=0.2).parameter_lower_bounds()
+    np.testing.assert_array_equal(stribeck, np.zeros(14))
+    np.testing.assert_array_equal(Armature(inertia_kgm2=0.0).parameter_lower_bounds(), np.zeros(7))
+    (gain,) = effects_from_dict({"torque_gain": {"gain": 0.0}})
+    assert np.all(gain.parameter_lower_bounds() == np.nextafter(-1.0, 0.0))
+    for free in (TorqueOffset(offset_nm=0.0), Delay(delay_s=0.0), S1Spring(), Payload(mass_kg=1.0), InertialError()):
+        assert np.all(free.parameter_lower_bounds() == -np.inf), free.name
+
+
 @pytest.mark.parametrize(
     ("raw", "match"),
     [

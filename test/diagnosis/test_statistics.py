@@ -139,3 +139,19 @@ def test_candidates_know_their_alternatives_and_what_the_spring_spans() -> None:
     assert [layout.acting_joints(without, t) for t in without.terms] == [(0, 1, 2), (0, 1)]
     assert layout.offset_term(without) == Term(offset, (0, 1, 2))
     assert layout.offset_term(Model.of([Term(viscous, (0,))])) is None
+
+
+def test_candidates_bound_their_parameters_as_the_physics_does() -> None:
+    """Friction and armature cannot be negative, a gain cannot reach −1 (a sensor reading nothing),
+    and an offset, a delay, the spring's coefficients and an inertial change are free; a bound per
+    column, the parameter count of each candidate (7 per joint parameter)."""
+    expected = {
+        "torque_offset": -np.inf, "viscous_friction": 0.0, "coulomb_friction": 0.0, "stribeck_friction": 0.0,
+        "s1_spring": -np.inf, "payload": -np.inf, "inertial_error": -np.inf, "armature": 0.0, "delay": -np.inf,
+    }  # fmt: skip
+    for c in column_layout().candidates:
+        assert c.lower.shape == c.columns.shape, c.label
+        if c.name == "torque_gain":
+            assert np.all(c.lower > -1.0) and np.all(c.lower < -1.0 + 1e-12), c.label
+        else:
+            np.testing.assert_array_equal(c.lower, np.full(len(c.columns), expected[c.name]), err_msg=c.label)
