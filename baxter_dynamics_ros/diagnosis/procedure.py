@@ -64,7 +64,7 @@ from .gap_analysis import GapSummary, gap_summary, quantile_edges, wanted_bins
 from .inertial_report import inertial_params, inertial_quantities
 from .passes import Reduction, Screening, TestFigures, reduce, screen, test_figures
 from .result import DiagnosisResult, EffectReport, hidden_torque, joint_list, verdict_of
-from .selection import MIN_JOINT_GAIN, MIN_JOINT_GAIN_NM, Evaluation, Rivalry, explain_joints, explain_unselected, rivalries, select
+from .selection import MIN_JOINT_GAIN, MIN_JOINT_GAIN_NM, Evaluation, Rivalry, explain_joints, explain_unselected, gain_lacks, rivalries, select
 from .sources import InMemory, Mapper, Source, serial_map
 from .statistics import Block, Candidate, ColumnLayout, Pool, active_columns, choose_cutoff, column_layout
 
@@ -373,9 +373,9 @@ def _noise_report(ctx: Scoring, cutoff: float) -> EffectReport:
     n = pool.samples
     gain_joint = (pool.rr_raw - pool.rr) / n
     gain = float(gain_joint.sum())
-    ok = _gain_ok(pool.rr_raw, pool.rr, n)
+    ok = np.array([not lacks for lacks in gain_lacks(pool.rr_raw, pool.rr, n)])
     joints = tuple(ctx.arm.joint_names[j] for j in np.flatnonzero(ok))
-    votes = sum(bool(_gain_ok(pool.group_rr_raw[g], pool.group_rr[g], pool.group_samples[g]).any()) for g in range(len(pool.groups)))
+    votes = sum(not all(gain_lacks(pool.group_rr_raw[g], pool.group_rr[g], pool.group_samples[g])) for g in range(len(pool.groups)))
     raw_test = _rms(ctx.test.rr_raw, ctx.test.samples)
     den_test = _rms(ctx.test.rr, ctx.test.samples)
     verdict = {name: verdict_of(raw_test[j], den_test[j]) for j, name in enumerate(ctx.arm.joint_names)}
@@ -390,11 +390,6 @@ def _noise_report(ctx: Scoring, cutoff: float) -> EffectReport:
         test_rms_before=raw_test, test_rms_after=den_test, params={"cutoff_hz": cutoff}, joints=joints, cv_gain=gain,
         cutoff_hz=cutoff, folds_selected=votes if selected else 0, folds=len(pool.groups), test_verdict=verdict, share=gain,
     )  # fmt: skip
-
-
-def _gain_ok(before: np.ndarray, after: np.ndarray, n: int) -> np.ndarray:
-    rel = (before - after) / np.maximum(before, 1e-300)
-    return (rel >= MIN_JOINT_GAIN) & (_rms(before, n) - _rms(after, n) >= MIN_JOINT_GAIN_NM)
 
 
 def _not_at_text(not_at: dict[str, str]) -> str:

@@ -47,7 +47,7 @@ from ..core.joints import S1
 from .fit import DECORRELATION_S, Fit, Fitter, Model, Term
 from .statistics import ColumnLayout, Pool
 
-__all__ = ["Evaluation", "Rivalry", "Selection", "explain_joints", "explain_unselected", "rivalries", "select"]
+__all__ = ["Evaluation", "Rivalry", "Selection", "explain_joints", "explain_unselected", "gain_lacks", "rivalries", "select"]
 
 #: A kept term must cut some joint's held-out squared error by this fraction and its held-out RMS
 #: by MIN_JOINT_GAIN_NM (the effort's quantisation is 0.004 N·m).
@@ -115,6 +115,25 @@ class Rivalry:
             f"not distinguishable on this data from {other} (with {self.rival_label} in {self.selected}'s place the score changes by "
             f"{self.change:+.3g}, within the folds' uncertainty of {self.margin:.3g}): {self.separated_by} would separate them"
         )
+
+
+def gain_lacks(before: np.ndarray, after: np.ndarray, samples: int) -> list[str]:
+    """Per joint, what a fall of the squared error from ``before`` to ``after`` ((7,), N·m² summed
+    over ``samples``) lacks of MIN_JOINT_GAIN and MIN_JOINT_GAIN_NM RMS, in words with the figures
+    ("" where it has both)."""
+    rel = (before - after) / np.maximum(before, 1e-300)
+    rms = np.sqrt(np.maximum(before, 0) / samples) - np.sqrt(np.maximum(after, 0) / samples)
+    out = []
+    for r, d in zip(rel, rms):
+        if r < 0:
+            out.append(f"raises the held-out squared error by {-r:.1%}")
+        elif r < MIN_JOINT_GAIN:
+            out.append(f"cuts the held-out squared error by {r:.1%}, not {MIN_JOINT_GAIN:.0%}")
+        elif d < MIN_JOINT_GAIN_NM:
+            out.append(f"cuts the held-out RMS by {d:.4f} N·m, not {MIN_JOINT_GAIN_NM:g}")
+        else:
+            out.append("")
+    return out
 
 
 class _Search:
@@ -214,23 +233,13 @@ class _Search:
     def gain_shortfalls(self, before: Evaluation, after: Evaluation) -> list[str]:
         """Per joint (7), what the held-out gain from before to after lacks of :meth:`joint_gain_ok`,
         in words with the figures ("" where it has all)."""
-        n = self.pool.samples
-        rel = (before.cv - after.cv) / np.maximum(before.cv, 1e-300)
-        rms = np.sqrt(np.maximum(before.cv, 0) / n) - np.sqrt(np.maximum(after.cv, 0) / n)
         helped = np.sum(after.per_fold < before.per_fold, axis=0)
         folds = len(after.per_fold)
         out = []
-        for j in range(N):
-            lacks = []
-            if rel[j] < 0:
-                lacks.append(f"raises the held-out squared error by {-rel[j]:.1%}")
-            elif rel[j] < MIN_JOINT_GAIN:
-                lacks.append(f"cuts the held-out squared error by {rel[j]:.1%}, not {MIN_JOINT_GAIN:.0%}")
-            elif rms[j] < MIN_JOINT_GAIN_NM:
-                lacks.append(f"cuts the held-out RMS by {rms[j]:.4f} N·m, not {MIN_JOINT_GAIN_NM:g}")
+        for j, lacks in enumerate(gain_lacks(before.cv, after.cv, self.pool.samples)):
             if not 2 * helped[j] > folds:
-                lacks.append(f"helps on {helped[j]} of {folds} held-out folds, not more than half")
-            out.append("; ".join(lacks))
+                lacks = "; ".join(filter(None, (lacks, f"helps on {helped[j]} of {folds} held-out folds, not more than half")))
+            out.append(lacks)
         return out
 
     def joint_params(self, ev: Evaluation, term: Term, joint: int) -> np.ndarray:
