@@ -345,8 +345,11 @@ class Step:
     loro_mse: np.ndarray
 
 
-def select(train: Sequence[RecordingStats], *, min_gain: float = MIN_GAIN, max_steps: int = 80) -> tuple[Model, np.ndarray, list[Step]]:
-    """Greedy forward selection (module docstring); returns the model, its joint weights (7,), the steps."""
+def select(
+    train: Sequence[RecordingStats], *, min_gain: float = MIN_GAIN, max_steps: int = 80, exclude: frozenset[str] = frozenset(),
+) -> tuple[Model, np.ndarray, list[Step]]:
+    """Greedy forward selection (module docstring), never taking a move labelled in ``exclude`` (e.g.
+    ``"armature@s1"``); returns the model, its joint weights (7,), the steps."""
     if len(train) < 2:
         raise ValueError("leave-one-recording-out needs at least 2 training recordings")
     model = Model()
@@ -357,6 +360,8 @@ def select(train: Sequence[RecordingStats], *, min_gain: float = MIN_GAIN, max_s
     for _ in range(max_steps):
         tried = []
         for label, candidate in _moves(model):
+            if label in exclude:
+                continue
             m = loro_mse(train, candidate, weights)
             tried.append((float(np.sum(np.log(mse) - np.log(m))), label, candidate, m))
         if not tried:
@@ -393,14 +398,15 @@ class PlainResult:
     fit: Fit | None = None
 
 
-def plain_diagnosis(train: Sequence[RecordingStats], test: Sequence[RecordingStats]) -> PlainResult:
-    """Select on ``train`` by LORO, fit the selection on all of ``train``, measure on ``test``.
+def plain_diagnosis(train: Sequence[RecordingStats], test: Sequence[RecordingStats], *, exclude: frozenset[str] = frozenset()) -> PlainResult:
+    """Select on ``train`` by LORO (never the moves in ``exclude``), fit the selection on all of
+    ``train``, measure on ``test``.
 
     Runs with BLAS on one thread: thousands of ~100×100 solves, which threads only slow down (by
     twenty times on a busy machine).
     """
     with threadpool_limits(1):
-        model, weights, steps = select(train)
+        model, weights, steps = select(train, exclude=exclude)
         result = fit(train, model, weights)
     offset = result.test_offset()
     total = sum(sse(t, model, result, offset) for t in test)

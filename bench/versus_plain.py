@@ -12,7 +12,9 @@ rotation — each recording the test once, the others training — this runs
 and writes per dataset, rotation and joint the held-out RMS of the plain fit, of the denoised rigid
 model and of ``diagnose``, the ratio diagnose/plain, the worst ratio per dataset, and every case that
 misses the goal (:func:`misses`), also printed as the ``KNOWN_MISSES`` literal of
-``test/bench/test_versus_plain.py``.
+``test/bench/test_versus_plain.py``. For each miss against the plain fit it also runs the plain fit
+again without the effects it applied at that joint which ``diagnose`` does not apply there: how much
+of the plain fit's lead rests on them.
 
 Run: ``python -m bench.versus_plain --out docs/real_robot_versus_plain.md``.
 """
@@ -28,7 +30,7 @@ import tempfile
 import time
 from collections.abc import Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -62,6 +64,9 @@ class Rotation:
     diagnose_joints: dict[str, tuple[str, ...]]
     #: diagnose's per-joint effects → {joint suffix → why it is not applied there} (its ``not_at``)
     diagnose_not_at: dict[str, dict[str, str]]
+    #: joint suffix of a miss against plain → the plain fit's held-out RMS there, N·m, when it may not
+    #: take the effects at that joint that diagnose does not apply there (:func:`withheld`)
+    plain_without: dict[str, float] = field(default_factory=dict)
 
 
 def datasets(root: Path = DATA) -> list[Path]:
@@ -99,15 +104,22 @@ def compare_dataset(folder: Path, *, arm: str = "left", procs: int = 2, urdf_arm
                 stats.append(recording_stats(urdf_arm, f.name, rec.q, rec.qd, rec.effort, rec.rate_hz))
         out = []
         for k, test in enumerate(files):
-            plain = plain_diagnosis([s for i, s in enumerate(stats) if i != k], [stats[k]])
+            train = [s for i, s in enumerate(stats) if i != k]
+            plain = plain_diagnosis(train, [stats[k]])
             report = jobs[k].result()
-            out.append(Rotation(
+            rotation = Rotation(
                 folder.name, test.name, tuple(f.name for f in files if f != test), plain.test_rms,
                 np.array(report["denoised"]["test_rms"], dtype=float), np.array(report["final"]["test_rms"], dtype=float),
                 plain.selected, tuple(e["name"] for e in report["effects"] if e["selected"]),
                 {e["name"]: tuple(j.split("_", 1)[-1] for j in e["joints"]) for e in report["effects"] if e["selected"]},
                 {e["name"]: {j.split("_", 1)[-1]: why for j, why in e["not_at"].items()} for e in report["effects"]},
-            ))
+            )
+            without = {}
+            for _, _, joint, against in misses([rotation]):
+                if against == "plain" and withheld(rotation, joint):
+                    j = JOINT_SUFFIXES.index(joint)
+                    without[joint] = float(plain_diagnosis(train, [stats[k]], exclude=withheld(rotation, joint)).test_rms[j])
+            out.append(replace(rotation, plain_without=without))
         return out
 
 
@@ -123,21 +135,31 @@ def misses(rotations: Sequence[Rotation]) -> dict[tuple[str, str, str, str], str
     return out
 
 
-def diagnose_says(rotation: Rotation, joint: str) -> str:
-    """For each per-joint effect the plain fit applied at ``joint`` (its "name@joint" selections):
-    that ``diagnose`` applies it there too, or why it does not (its ``not_at``), or that it did not
-    select it (with no reason per joint)."""
+def _plain_at(rotation: Rotation, joint: str) -> list[tuple[str, str]]:
+    """Each per-joint effect the plain fit applied at ``joint`` (its "name@joint" selections), with
+    "" where ``diagnose`` applies it there too, else why it does not (its ``not_at``, or that it did
+    not select it, with no reason per joint)."""
     out = []
     for chosen in rotation.plain_selected:
         name, _, at = chosen.partition("@")
         if at != joint:
             continue
         name = name.split("(")[0]
-        why = rotation.diagnose_not_at.get(name, {}).get(joint)
         if joint in rotation.diagnose_joints.get(name, ()):
-            why = "applied by diagnose too"
-        out.append(f"{chosen}: {why or 'not selected by diagnose (see its reason)'}")
-    return "; ".join(out) or "—"
+            out.append((chosen, ""))
+        else:
+            out.append((chosen, rotation.diagnose_not_at.get(name, {}).get(joint) or "not selected by diagnose (see its reason)"))
+    return out
+
+
+def diagnose_says(rotation: Rotation, joint: str) -> str:
+    """:func:`_plain_at` in words: "name@joint: applied by diagnose too" or ": why not"; "—" if none."""
+    return "; ".join(f"{chosen}: {why or 'applied by diagnose too'}" for chosen, why in _plain_at(rotation, joint)) or "—"
+
+
+def withheld(rotation: Rotation, joint: str) -> frozenset[str]:
+    """The plain fit's "name@joint" selections at ``joint`` that ``diagnose`` does not apply there."""
+    return frozenset(chosen for chosen, why in _plain_at(rotation, joint) if why)
 
 
 def _row(label: str, values: np.ndarray) -> str:
@@ -192,10 +214,15 @@ def page(rotations: Sequence[Rotation], elapsed_s: float) -> str:
     lines += ["## Cases that miss the goal", ""]
     if found:
         by_test = {(r.dataset, r.test): r for r in rotations}
-        lines += ["The last column: each per-joint effect the plain fit applied at that joint, and why `diagnose` does not "
-                  "apply it there (its report's `not_at`).", "",
-                  "| dataset | test | joint | against | measured | the plain fit's effects at the joint in `diagnose` |", "|---|---|---|---|---|---|"]
-        lines += [f"| {d} | `{t}` | {j} | {c} | {m[len('measured: '):]} | {diagnose_says(by_test[d, t], j)} |" for (d, t, j, c), m in found.items()]
+        lines += ["The last columns: each per-joint effect the plain fit applied at that joint, and why `diagnose` does not "
+                  "apply it there (its report's `not_at`); and the plain fit's held-out RMS at the joint when it is run again "
+                  "without those it applied there and `diagnose` does not (— where there are none).", "",
+                  "| dataset | test | joint | against | measured | the plain fit's effects at the joint in `diagnose` | plain without them [N·m] |",
+                  "|---|---|---|---|---|---|---:|"]
+        for (d, t, j, c), m in found.items():
+            without = by_test[d, t].plain_without.get(j) if c == "plain" else None
+            lines.append(f"| {d} | `{t}` | {j} | {c} | {m[len('measured: '):]} | {diagnose_says(by_test[d, t], j)} | "
+                         f"{'—' if without is None else f'{without:.3f}'} |")
     else:
         lines.append("None.")
     return "\n".join(lines) + "\n"

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from repo_paths import SHARED
 
-from bench.plain_fit import COLUMNS, UrdfArm, plain_diagnosis, recording_stats
+from bench.plain_fit import COLUMNS, JOINT_EFFECTS, UrdfArm, plain_diagnosis, recording_stats
 
 URDF = SHARED / "reference" / "baxter.urdf"
 RATE_HZ = 100.0
@@ -86,6 +86,21 @@ def test_recovers_the_planted_values(planted) -> None:
     assert result.test_rms[3] < 2 * NOISE_NM
     assert result.test_rms[5] == pytest.approx(np.hypot(NOISE_NM, OFFSETS_W1_NM[3] - np.mean(OFFSETS_W1_NM[:3])), abs=0.005)
     assert result.rigid_test_rms[3] > 1.0  # what the planted Coulomb term leaves without the fit
+
+
+def test_never_takes_an_excluded_move(planted) -> None:
+    """Barred from Coulomb friction at e1, the fit takes a Stribeck variant there (it holds the same
+    sign(q̇) column); barred from every friction move at e1, nothing stands in for it (held-out e1
+    error far above the noise); the offset at w1 is found either way."""
+    stats, result = planted
+    barred = plain_diagnosis(stats[:3], stats[3:], exclude=frozenset({"coulomb_friction@e1"}))
+    assert "coulomb_friction@e1" not in barred.selected and "torque_offset@w1" in barred.selected, barred.selected
+    assert any(e.startswith("stribeck_friction") and e.endswith("@e1") for e in barred.selected), barred.selected
+    friction = frozenset(f"{name}@e1" for name in JOINT_EFFECTS if "friction" in name)
+    barred = plain_diagnosis(stats[:3], stats[3:], exclude=friction)
+    assert not friction & set(barred.selected) and "torque_offset@w1" in barred.selected, barred.selected
+    assert barred.test_rms[3] > 10 * result.test_rms[3]
+    assert barred.test_rms[5] == pytest.approx(result.test_rms[5], abs=1e-3)
 
 
 def test_rejects_an_absent_effect(arm: UrdfArm) -> None:

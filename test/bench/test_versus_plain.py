@@ -24,6 +24,7 @@ from bench.versus_plain import (
     Rotation,
     compare_dataset,
     diagnose_says,
+    withheld,
 )
 
 DATA = SHARED / "data"
@@ -83,7 +84,8 @@ def test_diagnose_is_never_worse(dataset: str, test: str, joint: str, against: s
 
 def test_the_misses_table_says_what_diagnose_did_with_the_plain_fits_effects() -> None:
     """diagnose_says on a hand-built rotation: per "name@joint" the plain fit chose there, applied by
-    diagnose, its not_at reason, or not selected; whole effects and other joints are not listed."""
+    diagnose, its not_at reason, or not selected; whole effects and other joints are not listed.
+    withheld: those of them diagnose does not apply there."""
     rotation = Rotation(
         "d", "t.csv", ("a.csv", "b.csv"), np.ones(7), np.ones(7), np.ones(7),
         ("s1_spring", "armature@s1", "stribeck_friction(v_s=0.02)@s1", "delay@s1", "coulomb_friction@w0"),
@@ -96,3 +98,6 @@ def test_the_misses_table_says_what_diagnose_did_with_the_plain_fits_effects() -
         "delay@s1: not selected by diagnose (see its reason)"
     )
     assert diagnose_says(rotation, "e1") == "—"
+    # what the plain fit is run again without, for its figure at s1 without them: all but the applied one
+    assert withheld(rotation, "s1") == {"armature@s1", "delay@s1"}
+    assert withheld(rotation, "e1") == frozenset()
