@@ -176,6 +176,8 @@ class UrdfArm:
 
 def denoise(qd: np.ndarray, rate_hz: float, cutoff_hz: float = CUTOFF_HZ) -> tuple[np.ndarray, np.ndarray]:
     """(q̇_f, q̈_f), each (n, 7): q̇ (n, 7) rad/s low-passed at cutoff_hz, zero phase, and its central difference, rad/s²."""
+    if not 0.0 < cutoff_hz < 0.5 * rate_hz:
+        raise ValueError(f"a low-pass cut-off of {cutoff_hz:g} Hz needs a sample rate above {2 * cutoff_hz:g} Hz, not {rate_hz:g}")
     b, a = butter(FILTER_ORDER, cutoff_hz / (0.5 * rate_hz))
     qd_f = filtfilt(b, a, qd, axis=0)
     return qd_f, np.gradient(qd_f, 1.0 / rate_hz, axis=0)

@@ -24,6 +24,7 @@ from bench.versus_plain import (
     Rotation,
     compare_dataset,
     diagnose_says,
+    main,
     withheld,
 )
 
@@ -101,3 +102,27 @@ def test_the_misses_table_says_what_diagnose_did_with_the_plain_fits_effects() -
     # what the plain fit is run again without, for its figure at s1 without them: all but the applied one
     assert withheld(rotation, "s1") == {"armature@s1", "delay@s1"}
     assert withheld(rotation, "e1") == frozenset()
+
+
+@pytest.mark.parametrize(
+    ("args", "match"),
+    [
+        (["--plain-cutoff-hz", "60"], "a low-pass cut-off of 60 Hz needs a sample rate above 120 Hz, not 100"),
+        (["--out", "{tmp}/a_file/page.md"], "is a file, not a folder"),
+    ],
+)
+def test_bad_options_give_one_error_line_and_write_nothing(tmp_path, capsys, args: list[str], match: str) -> None:
+    """A cut-off the recordings' rate cannot carry (baxter_real's are 100 Hz), or an output under a
+    file: exit 1, one ERROR line, no page, before any diagnose runs."""
+    folder = DATA / "baxter_real"
+    if len(sorted(folder.glob("*.csv"))) < 3:
+        pytest.skip(f"needs ≥ 3 recordings in {folder} (../shared beside the checkout)")
+    data = tmp_path / "data"
+    data.mkdir()
+    (data / "baxter_real").symlink_to(folder)
+    (tmp_path / "a_file").write_text("x")
+    args = [a.replace("{tmp}", str(tmp_path)) for a in args]
+    assert main(["--data", str(data), *args]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("ERROR: ") and match in err[0], err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file", "data"]
