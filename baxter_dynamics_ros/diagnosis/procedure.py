@@ -373,22 +373,26 @@ def _noise_report(ctx: Scoring, cutoff: float) -> EffectReport:
     n = pool.samples
     gain_joint = (pool.rr_raw - pool.rr) / n
     gain = float(gain_joint.sum())
-    ok = np.array([not lacks for lacks in gain_lacks(pool.rr_raw, pool.rr, n)])
-    joints = tuple(ctx.arm.joint_names[j] for j in np.flatnonzero(ok))
+    lacks = gain_lacks(pool.rr_raw, pool.rr, n, of="training")
+    joints = tuple(name for name, why in zip(ctx.arm.joint_names, lacks) if not why)
+    not_at = {name: why for name, why in zip(ctx.arm.joint_names, lacks) if why}
     votes = sum(not all(gain_lacks(pool.group_rr_raw[g], pool.group_rr[g], pool.group_samples[g])) for g in range(len(pool.groups)))
     raw_test = _rms(ctx.test.rr_raw, ctx.test.samples)
     den_test = _rms(ctx.test.rr, ctx.test.samples)
     verdict = {name: verdict_of(raw_test[j], den_test[j]) for j, name in enumerate(ctx.arm.joint_names)}
-    selected = bool(ok.any())
+    selected = bool(joints)
     reason = (
         f"filtering q̇ at {cutoff:g} Hz before differentiating removes {gain:.4g} N·m² per sample of the training residual (no fit)"
         if selected
         else f"filtering q̇ removes no joint's error by {MIN_JOINT_GAIN:.0%} and {MIN_JOINT_GAIN_NM:g} N·m RMS"
     )
+    if not_at:
+        reason += "; " + _not_at_text(not_at)
     return EffectReport(
         name="acceleration_noise", variant=f"zero-phase low-pass {cutoff:g} Hz", selected=selected, reason=reason,
         test_rms_before=raw_test, test_rms_after=den_test, params={"cutoff_hz": cutoff}, joints=joints, cv_gain=gain,
         cutoff_hz=cutoff, folds_selected=votes if selected else 0, folds=len(pool.groups), test_verdict=verdict, share=gain,
+        not_at=not_at,
     )  # fmt: skip
 
 

@@ -117,20 +117,20 @@ class Rivalry:
         )
 
 
-def gain_lacks(before: np.ndarray, after: np.ndarray, samples: int) -> list[str]:
+def gain_lacks(before: np.ndarray, after: np.ndarray, samples: int, *, of: str = "held-out") -> list[str]:
     """Per joint, what a fall of the squared error from ``before`` to ``after`` ((7,), N·m² summed
     over ``samples``) lacks of MIN_JOINT_GAIN and MIN_JOINT_GAIN_NM RMS, in words with the figures
-    ("" where it has both)."""
+    ("" where it has both); ``of`` names the error ("held-out", "training")."""
     rel = (before - after) / np.maximum(before, 1e-300)
     rms = np.sqrt(np.maximum(before, 0) / samples) - np.sqrt(np.maximum(after, 0) / samples)
     out = []
     for r, d in zip(rel, rms):
         if r < 0:
-            out.append(f"raises the held-out squared error by {-r:.1%}")
+            out.append(f"raises the {of} squared error by {-r:.1%}")
         elif r < MIN_JOINT_GAIN:
-            out.append(f"cuts the held-out squared error by {r:.1%}, not {MIN_JOINT_GAIN:.0%}")
+            out.append(f"cuts the {of} squared error by {r:.1%}, not {MIN_JOINT_GAIN:.0%}")
         elif d < MIN_JOINT_GAIN_NM:
-            out.append(f"cuts the held-out RMS by {d:.4f} N·m, not {MIN_JOINT_GAIN_NM:g}")
+            out.append(f"cuts the {of} RMS by {d:.4f} N·m, not {MIN_JOINT_GAIN_NM:g}")
         else:
             out.append("")
     return out
