@@ -22,9 +22,11 @@ def main(argv: list[str]) -> int:
     if unknown:
         print(f"ERROR: no benchmark named {', '.join(unknown)}; available: {', '.join(names)}", file=sys.stderr)
         return 1
+    status = 0
     for name in argv or names:
-        importlib.import_module(f"{__package__}.{PREFIX}{name}").main()
-    return 0
+        # Each with its defaults: an empty argv, not this command's (its names are no options of theirs).
+        status = max(status, importlib.import_module(f"{__package__}.{PREFIX}{name}").main([]) or 0)
+    return status
 
 
 if __name__ == "__main__":

@@ -14,6 +14,7 @@ Goals: ≥ 2× compiled Pinocchio per sample on all cores; single-sample τ < 10
 
 from __future__ import annotations
 
+import argparse
 import os
 import sys
 import time
@@ -77,7 +78,8 @@ def _relative_error(ours: np.ndarray, theirs: np.ndarray) -> float:
     return float(np.max(np.abs(ours - theirs)) / max(float(np.max(np.abs(theirs))), 1.0))
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> int:
+    argparse.ArgumentParser(prog="python -m bench.bench_dynamics", description=__doc__.splitlines()[0]).parse_args(argv)
     arm = load_arm_model("right")
     ref = pinocchio_from_arm(arm)
     model, data = ref.model, ref.data
@@ -185,7 +187,8 @@ def main() -> None:
         f"  goals: >= {ANCHOR_RATIO_GOAL:.0f}x compiled Pinocchio per sample on all cores: {anchor_goal}; "
         f"single-sample tau < {TAU_LATENCY_GOAL_US:.0f} µs: {'met' if latency_ok else 'NOT MET'}"
     )
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main(sys.argv[1:]))
