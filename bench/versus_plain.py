@@ -123,9 +123,9 @@ def compare_dataset(
             )
             without = {}
             for _, _, joint, against in misses([rotation]):
-                if against == "plain" and withheld(rotation, joint):
-                    j = JOINT_SUFFIXES.index(joint)
-                    without[joint] = float(plain_diagnosis(train, [stats[k]], exclude=withheld(rotation, joint)).test_rms[j])
+                barred = withheld(rotation, joint) if against == "plain" else frozenset()
+                if barred:
+                    without[joint] = float(plain_diagnosis(train, [stats[k]], exclude=barred).test_rms[JOINT_SUFFIXES.index(joint)])
             out.append(replace(rotation, plain_without=without))
         return out
 
