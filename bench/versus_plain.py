@@ -38,9 +38,9 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from baxter_dynamics_ros.core.output_files import check_outputs, staged_outputs
-from baxter_dynamics_ros.errors import BaxterDynamicsError, OutputError
+from baxter_dynamics_ros.errors import BaxterDynamicsError, DiagnosisError, OutputError
 from bench.plain_fit import CUTOFF_HZ, JOINT_SUFFIXES, RecordingStats, UrdfArm, plain_diagnosis, recording_stats
-from msg_adapters.csv_io import read_table_recording
+from msg_adapters.recording_files import read_recording
 
 REPO = Path(__file__).resolve().parents[1]
 DATA = REPO.parent / "shared" / "data"
@@ -77,7 +77,8 @@ def datasets(root: Path = DATA) -> list[Path]:
 
 
 def run_diagnose(train: Sequence[Path], test: Path, out: Path, arm: str = "left") -> dict:
-    """``baxter-dynamics diagnose`` on one split in a subprocess (one worker); its diagnosis.json."""
+    """``baxter-dynamics diagnose`` on one split in a subprocess (one worker); its diagnosis.json.
+    Raises DiagnosisError with diagnose's own ERROR line when it fails."""
     exe = Path(sys.executable).with_name("baxter-dynamics")
     command = [str(exe), "diagnose", "--train", *map(str, train), "--test", str(test), "--out", str(out),
                "--arm", arm, "--force", "--no-progress", "--jobs", "1"]
@@ -85,7 +86,8 @@ def run_diagnose(train: Sequence[Path], test: Path, out: Path, arm: str = "left"
     env = {**os.environ, **{k: "1" for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}}
     done = subprocess.run(command, capture_output=True, text=True, env=env)
     if done.returncode != 0:
-        raise RuntimeError(f"{' '.join(command)} failed ({done.returncode}):\n{done.stderr}")
+        said = [line.removeprefix("ERROR: ") for line in done.stderr.splitlines() if line.startswith("ERROR: ")]
+        raise DiagnosisError(f"diagnose with {test.name} held out: {said[-1] if said else f'exit {done.returncode}'}")
     return json.loads((out / "diagnosis.json").read_text())
 
 
@@ -103,7 +105,7 @@ def compare_dataset(
     stats: list[RecordingStats] = []
     with threadpool_limits(1):
         for f in files:
-            rec = read_table_recording(f, arm=arm)
+            rec = read_recording(f, arm=arm, note=None)  # as diagnose reads it; errors name the file
             stats.append(recording_stats(urdf_arm, f.name, rec.q, rec.qd, rec.effort, rec.rate_hz, cutoff_hz=plain_cutoff_hz))
     with tempfile.TemporaryDirectory(prefix="versus_plain-") as scratch, ThreadPoolExecutor(procs) as pool:
         jobs: list[Future] = [

@@ -126,3 +126,29 @@ def test_bad_options_give_one_error_line_and_write_nothing(tmp_path, capsys, arg
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("ERROR: ") and match in err[0], err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file", "data"]
+
+
+@pytest.mark.parametrize(
+    ("binary", "match"),
+    [
+        (False, "ERROR: diagnose with r1.csv held out: "),  # they move, but are too short for diagnose
+        (True, "r2.csv: not a text table"),  # the reader's refusal, naming the file
+    ],
+)
+def test_recordings_diagnose_or_the_reader_refuses_give_one_error_line(tmp_path, capsys, binary: bool, match: str) -> None:
+    """Three 1.5 s slices of a real recording (r2 binary bytes instead, in the second case):
+    diagnose's own ERROR line, or the reader's with the file's path, as one line; exit 1, no page."""
+    source = DATA / "baxter_real" / "Random_ang_vel_torq.csv"
+    if not source.is_file():
+        pytest.skip(f"needs {source} (../shared beside the checkout)")
+    lines = source.read_text().splitlines()
+    folder = tmp_path / "data" / "slices"
+    folder.mkdir(parents=True)
+    for n in (1, 2, 3):
+        (folder / f"r{n}.csv").write_text("\n".join([lines[0], *lines[300 * n : 300 * n + 151]]) + "\n")
+    if binary:
+        (folder / "r2.csv").write_bytes(bytes(range(256)) * 8)
+    assert main(["--data", str(tmp_path / "data"), "--out", str(tmp_path / "page.md")]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("ERROR: ") and match in err[0], err
+    assert not (tmp_path / "page.md").exists()
