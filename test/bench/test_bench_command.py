@@ -27,3 +27,16 @@ def test_an_unknown_name_is_one_error_line() -> None:
     done = _bench("diagnosis", "nosuch")
     assert done.returncode == 1 and done.stdout == ""
     assert done.stderr.splitlines() == [done.stderr.strip()] and done.stderr.startswith("ERROR: no benchmark named nosuch; available: ")
+
+
+def test_the_diagnosis_benchmark_refuses_a_length_it_cannot_use(capsys) -> None:
+    """No length, an absurd one, or one too short for diagnose: one ERROR line, exit 1."""
+    from bench.bench_diagnosis import main
+
+    for minutes, said in (("0", "must be a positive number of minutes, got 0"), ("nan", "got nan"),
+                          ("0.02", "--minutes 0.02: random-0: 30 samples, 0.30 s; a training recording needs")):
+        assert main(["--minutes", minutes]) == 1
+        captured = capsys.readouterr()
+        err = captured.err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith("ERROR: ") and said in err[0], err
+        assert captured.out == ""
