@@ -7,7 +7,7 @@ processes or a cluster can run them (:data:`~baxter_dynamics_ros.diagnosis.sourc
 
 1. :func:`screen`: the checks of one recording, the training files' cut-off scores, the test
    files' angle histograms;
-2. :func:`reduce`: at the chosen cut-off, the sufficient statistics per block (and the test files'
+2. :func:`reduce`: at the chosen cut-offs, the sufficient statistics per block (and the test files'
    angle values near the quantiles of the gap summary's bins);
 3. :func:`test_figures`: on a test file with the selected effects fitted, the gap summary's sums and
    the report's residual series (every ``stride``-th sample).
@@ -73,7 +73,7 @@ class Screening:
     samples: int
     span_s: float
     rate_hz: float
-    scores: tuple[np.ndarray, tuple[np.ndarray, ...]] | None
+    scores: np.ndarray | None
     histogram: np.ndarray | None
 
 
@@ -97,12 +97,13 @@ class Reduction:
 
 
 def reduce(
-    arm: ArmModel, layout: ColumnLayout, active: list[np.ndarray], cutoff_hz: float, parts: int, wanted: np.ndarray | None, source: Source
+    arm: ArmModel, layout: ColumnLayout, active: list[np.ndarray], cutoffs_hz: tuple[float, ...], parts: int, wanted: np.ndarray | None, source: Source
 ) -> Reduction:
     """Pass 2 on one source: the statistics of ``parts`` contiguous blocks with q̇ low-passed at
-    cutoff_hz; wanted (test files): the histogram bins whose angle values to keep."""
+    cutoffs_hz (7,: joint j's rows at cutoffs_hz[j]); wanted (test files): the histogram bins whose
+    angle values to keep."""
     rec = source.read()
-    blocks = recording_blocks(arm, layout, active, source.label, prepare(arm, rec, cutoff_hz), parts)
+    blocks = recording_blocks(arm, layout, active, source.label, prepare(arm, rec, cutoffs_hz), parts)
     return Reduction(blocks, None if wanted is None else values_in_bins(rec.q, wanted))
 
 
@@ -122,12 +123,20 @@ class TestFigures:
 
 
 def test_figures(
-    arm: ArmModel, layout: ColumnLayout, cutoff_hz: float, columns: np.ndarray, x: np.ndarray, angle_edges: np.ndarray, stride: int, source: Source
+    arm: ArmModel,
+    layout: ColumnLayout,
+    cutoffs_hz: tuple[float, ...],
+    columns: np.ndarray,
+    x: np.ndarray,
+    angle_edges: np.ndarray,
+    stride: int,
+    source: Source,
 ) -> TestFigures:
     """Pass 3 on one test source: the residuals before and after the fitted effects (columns of the
-    layout and their values x), summed for the gap summary with the bins' angle_edges."""
+    layout and their values x; q̇ low-passed at cutoffs_hz, (7,) per joint), summed for the gap
+    summary with the bins' angle_edges."""
     rec = source.read()
-    p = prepare(arm, rec, cutoff_hz)
+    p = prepare(arm, rec, cutoffs_hz)
     effects = np.zeros_like(rec.q)
     if len(columns):
         for a in range(0, len(rec), CHUNK):

@@ -4,8 +4,8 @@ Method:
 
 1. **Noise first, physics second.** The rigid-body residual r = effort − τ(q, q̇, q̈) depends on
    how q̈ is estimated. Physical effects are attributed in the *denoised* world only: q̇ low-passed
-   forwards and backwards before differentiating, at the cut-off that leaves the smallest rigid
-   residual on the training data (:func:`~baxter_dynamics_ros.diagnosis.statistics.choose_cutoff`).
+   forwards and backwards before differentiating, at each joint the cut-off that leaves the smallest
+   rigid residual there on the training data (:func:`~baxter_dynamics_ros.diagnosis.statistics.choose_cutoff`).
    ``acceleration_noise`` is the share of the gap that this filtering alone removes against the
    paper's first difference; it is ranked with the others by its share, but no physical effect is
    ever fitted to differentiation noise.
@@ -55,6 +55,7 @@ from ..core.effects import (
     TorqueOffset,
     ViscousFriction,
 )
+from ..core.joints import JOINT_SUFFIXES
 from ..core.joints import JOINTS as N
 from ..core.recording import MIN_FIT_S, Recording, require_total_span
 from ..errors import DiagnosisError, RecordingError
@@ -63,7 +64,7 @@ from .fit import MAX_OFFSET_DRIFT_NM, Fit, Model, Term
 from .gap_analysis import GapSummary, gap_summary, quantile_edges, wanted_bins
 from .inertial_report import inertial_params, inertial_quantities
 from .passes import Reduction, Screening, TestFigures, reduce, screen, test_figures
-from .result import DiagnosisResult, EffectReport, hidden_torque, joint_list, verdict_of
+from .result import DiagnosisResult, EffectReport, cutoff_text, hidden_torque, joint_list, verdict_of
 from .selection import MIN_JOINT_GAIN, MIN_JOINT_GAIN_NM, Evaluation, Rivalry, explain_joints, explain_unselected, gain_lacks, rivalries, select
 from .sources import InMemory, Mapper, Source, serial_map
 from .statistics import Block, Candidate, ColumnLayout, Pool, active_columns, choose_cutoff, column_layout
@@ -150,13 +151,13 @@ def diagnose(
         raise DiagnosisError(str(err)) from err
     layout = column_layout()
     active = active_columns(arm, layout)
-    cutoff = choose_cutoff([s.scores for s in train_screens])
+    cutoffs = choose_cutoff([s.scores for s in train_screens])
     histogram = sum(s.histogram for s in test_screens)
     wanted = wanted_bins(histogram)
     step()
 
     jobs = [(BLOCKS_PER_RECORDING, None, s) for s in train_sources] + [(1, wanted, s) for s in test_sources]
-    reductions = mapper(partial(_reduce_one, arm, layout, active, cutoff), jobs)
+    reductions = mapper(partial(_reduce_one, arm, layout, active, cutoffs), jobs)
     train_blocks = [b for r in reductions[: len(train_sources)] for b in r.blocks]
     test_reductions = reductions[len(train_sources) :]
     pool = Pool.of(train_blocks)
@@ -174,7 +175,7 @@ def diagnose(
 
     rivals = rivalries(arm, layout, pool, selection.evaluation, ctx.fitter)
     reports = _selected_reports(ctx, selection.evaluation, fold_models, rivals)
-    reports.append(_noise_report(ctx, cutoff))
+    reports.append(_noise_report(ctx, cutoffs))
     reports += _unselected_reports(ctx, selection.evaluation, {r.name for r in reports if r.selected}, rivals)
     reports = add_shares_and_steps(ctx, final, reports)
     ordered = sorted(reports, key=lambda e: (not e.selected, -(e.share if e.selected else e.cv_gain)))
@@ -185,7 +186,7 @@ def diagnose(
     final_rms = ctx.test_rms(final)
     stride = max(1, -(-n_test // max_series_points))
     figures = mapper(
-        partial(test_figures, arm, layout, cutoff, ctx.fitter.columns(final), ctx.fitter.fit(final).x, edges, stride), test_sources
+        partial(test_figures, arm, layout, cutoffs, ctx.fitter.columns(final), ctx.fitter.fit(final).x, edges, stride), test_sources
     )
     gap, gap_filtered, series = _test_gap(arm, figures)
     tick(steps[1], steps[1])
@@ -197,7 +198,7 @@ def diagnose(
         test_files=tuple(s.label for s in test_sources),
         holdout=holdout,
         folds=len(pool.groups),
-        cutoff_hz=cutoff,
+        cutoff_hz=cutoffs,
         baseline_train_rms=_rms(pool.rr_raw, n_train),
         baseline_test_rms=_rms(test_pool.rr_raw, n_test),
         denoised_test_rms=_rms(test_pool.rr, n_test),
@@ -223,8 +224,10 @@ def _screen_one(arm: ArmModel, job: tuple[str, Source]) -> Screening:
     return screen(arm, *job)
 
 
-def _reduce_one(arm: ArmModel, layout: ColumnLayout, active: list[np.ndarray], cutoff: float, job: tuple[int, np.ndarray | None, Source]) -> Reduction:
-    return reduce(arm, layout, active, cutoff, *job)
+def _reduce_one(
+    arm: ArmModel, layout: ColumnLayout, active: list[np.ndarray], cutoffs: tuple[float, ...], job: tuple[int, np.ndarray | None, Source]
+) -> Reduction:
+    return reduce(arm, layout, active, cutoffs, *job)
 
 
 def _term_values(ctx: Scoring, model: Model, fit: Fit, term: Term) -> tuple[np.ndarray, np.ndarray]:
@@ -367,7 +370,7 @@ def _offset_drift(ctx: Scoring, model: Model, fit: Fit, term: Term) -> dict:
     }
 
 
-def _noise_report(ctx: Scoring, cutoff: float) -> EffectReport:
+def _noise_report(ctx: Scoring, cutoffs: tuple[float, ...]) -> EffectReport:
     """acceleration_noise: the share of the gap that the zero-phase filter of q̇ alone removes."""
     pool = ctx.pool
     n = pool.samples
@@ -381,17 +384,18 @@ def _noise_report(ctx: Scoring, cutoff: float) -> EffectReport:
     den_test = _rms(ctx.test.rr, ctx.test.samples)
     verdict = {name: verdict_of(raw_test[j], den_test[j]) for j, name in enumerate(ctx.arm.joint_names)}
     selected = bool(joints)
+    where = cutoff_text(ctx.arm.joint_names, cutoffs)
     reason = (
-        f"filtering q̇ at {cutoff:g} Hz before differentiating removes {gain:.4g} N·m² per sample of the training residual (no fit)"
+        f"filtering q̇ ({where}) before differentiating removes {gain:.4g} N·m² per sample of the training residual (no fit)"
         if selected
         else f"filtering q̇ removes no joint's error by {MIN_JOINT_GAIN:.0%} and {MIN_JOINT_GAIN_NM:g} N·m RMS"
     )
     if not_at:
         reason += "; " + _not_at_text(not_at)
     return EffectReport(
-        name="acceleration_noise", variant=f"zero-phase low-pass {cutoff:g} Hz", selected=selected, reason=reason,
-        test_rms_before=raw_test, test_rms_after=den_test, params={"cutoff_hz": cutoff}, joints=joints, cv_gain=gain,
-        cutoff_hz=cutoff, folds_selected=votes if selected else 0, folds=len(pool.groups), test_verdict=verdict, share=gain,
+        name="acceleration_noise", variant=f"zero-phase low-pass {where}", selected=selected, reason=reason,
+        test_rms_before=raw_test, test_rms_after=den_test, params={f"cutoff_hz[{s}]": c for s, c in zip(JOINT_SUFFIXES, cutoffs)}, joints=joints, cv_gain=gain,
+        cutoff_hz=dict(zip(ctx.arm.joint_names, cutoffs)), folds_selected=votes if selected else 0, folds=len(pool.groups), test_verdict=verdict, share=gain,
         not_at=not_at,
     )  # fmt: skip
 

@@ -18,7 +18,7 @@ import yaml
 from ..core.effect_specs import effects_to_dict
 from ..core.joints import JOINTS as N
 from ..core.output_files import staged_outputs
-from .result import STABLE_FRACTION, DiagnosisResult
+from .result import STABLE_FRACTION, DiagnosisResult, cutoff_text
 
 __all__ = ["effects_yaml", "write_diagnosis"]
 
@@ -262,7 +262,7 @@ Measured on held-out data: {files(result.test_files)}. No parameter and no selec
 <h2>Where the gap lies</h2>
 <p>Residual = measured effort − rigid-body model with the paper's q̈ (first difference of q̇), on the test data.
 The systematic part is what a zero-phase 2 Hz low-pass keeps; the rest is noise, mostly of the
-differentiated q̈ (last column: the RMS once q̇ is low-passed at {result.cutoff_hz:g} Hz before differentiating).</p>
+differentiated q̈ (last column: the RMS once q̇ is low-passed at {cutoff_text(result.joint_names, result.cutoff_hz)} before differentiating).</p>
 {where}
 {_img(plots["regimes.png"], "Residual RMS per joint by motion regime and configuration")}
 <h2>Which effects cause it</h2>
@@ -310,7 +310,7 @@ def effects_yaml(result: DiagnosisResult) -> str:
         "source": "baxter-dynamics diagnose",
         "q_ddot": {
             "estimator": "zero-phase low-pass of q̇, then central differences; friction fitted on the low-passed q̇",
-            "cutoff_hz": result.cutoff_hz,
+            "cutoff_hz": dict(zip(result.joint_names, result.cutoff_hz)),
         },
         "joints": {e.name: list(e.joints) for e in selected},
         "uncertain": [e.name for e in selected if e.uncertain],

@@ -17,7 +17,7 @@ from ..core.effects import Effect
 from .fit import MAX_OFFSET_DRIFT_NM
 from .gap_analysis import GapSummary
 
-__all__ = ["STABLE_FRACTION", "VERDICT_TOLERANCE", "DiagnosisResult", "EffectReport", "hidden_torque", "joint_list", "verdict_of"]
+__all__ = ["STABLE_FRACTION", "VERDICT_TOLERANCE", "DiagnosisResult", "EffectReport", "cutoff_text", "hidden_torque", "joint_list", "verdict_of"]
 
 #: Effects chosen in fewer than this fraction of the cross-validation folds are uncertain.
 STABLE_FRACTION = 0.75
@@ -58,7 +58,7 @@ class EffectReport:
     joints: tuple[str, ...] = ()
     cv_gain: float = 0.0
     effect: Effect | None = None
-    cutoff_hz: float | None = None
+    cutoff_hz: dict[str, float] | None = None  # acceleration_noise: joint name -> its q̇ low-pass, Hz
     folds_selected: int = 0
     folds: int = 0
     joint_folds: dict[str, int] = field(default_factory=dict)
@@ -97,7 +97,7 @@ class DiagnosisResult:
     test_files: tuple[str, ...]
     holdout: str
     folds: int
-    cutoff_hz: float
+    cutoff_hz: tuple[float, ...]  # (7,) each joint's q̇ low-pass in the denoised world, Hz
     baseline_train_rms: np.ndarray
     baseline_test_rms: np.ndarray
     denoised_test_rms: np.ndarray
@@ -157,13 +157,13 @@ class DiagnosisResult:
             "passed_over": dict(self.passed_over),
             "holdout": self.holdout,
             "folds": self.folds,
-            "q_ddot_cutoff_hz": self.cutoff_hz,
+            "q_ddot_cutoff_hz": dict(zip(self.joint_names, self.cutoff_hz)),
             "baseline": {
                 "q_ddot": "first difference of q̇ (the paper's)",
                 "train_rms": rms(self.baseline_train_rms),
                 "test_rms": rms(self.baseline_test_rms),
             },
-            "denoised": {"q_ddot": f"zero-phase low-pass of q̇ at {self.cutoff_hz:g} Hz", "test_rms": rms(self.denoised_test_rms)},
+            "denoised": {"q_ddot": f"zero-phase low-pass of q̇ at {cutoff_text(self.joint_names, self.cutoff_hz)}", "test_rms": rms(self.denoised_test_rms)},
             "effects": [
                 {
                     "name": e.name,
@@ -200,6 +200,14 @@ class DiagnosisResult:
             "gap": self.gap.to_dict(),
             "gap_filtered_q_ddot": self.gap_filtered.to_dict(),
         }
+
+
+def cutoff_text(names: Sequence[str], cutoffs_hz: Sequence[float]) -> str:
+    """"8 Hz" when every joint has it, else "6 Hz at s0, e0; 8 Hz at e1, w0": each joint's cut-off in words."""
+    values = sorted(set(cutoffs_hz))
+    if len(values) == 1:
+        return f"{values[0]:g} Hz"
+    return "; ".join(f"{v:g} Hz at {joint_list([n for n, c in zip(names, cutoffs_hz) if c == v])}" for v in values)
 
 
 def joint_list(names: Sequence[str]) -> str:

@@ -8,7 +8,9 @@ side by side in one layout (:class:`ColumnLayout`); ``payload`` shares link 7's 
 
 A recording is reduced to sufficient statistics per contiguous block and joint j:
 H_j = Σ Φ_jᵀ Φ_j, b_j = Σ Φ_jᵀ r_j and r_jᵀ r_j, with r the rigid-body residual in the *denoised*
-world (q̈ from a zero-phase low-pass on q̇, cut-off chosen on the training data), plus r_jᵀ r_j of
+world (q̈ from a zero-phase low-pass on q̇, each joint's cut-off chosen on the training data: joint
+j's rows — its residual and every column at j, the inertial ones with all joints' q̈ — are those of
+its own cut-off), plus r_jᵀ r_j of
 the raw world (the paper's first difference of q̇) for the ``acceleration_noise`` share. Friction's
 columns take q̇ through the same low-pass: friction acts on the true speed, and the measured q̇'s
 noise flips the sign of a Coulomb column around every reversal, which biases its coefficient towards
@@ -198,43 +200,70 @@ def column_layout() -> ColumnLayout:
 # ----------------------------------------------------------------------------- one recording
 @dataclass(frozen=True)
 class Prepared:
-    """A recording's arrays in the denoised world: filtered q̇ (friction's argument) and q̈, rigid
+    """A recording's arrays in the denoised world, joint j's at its own cut-off ``cutoffs_hz[j]``:
+    per distinct cut-off c, the low-passed q̇ (friction's argument) and q̈ of every joint; rigid
     torques and residuals, delay columns (−dτ_rigid/dt with the same q̈, so that a fitted delay
-    means what :class:`Delay` says)."""
+    means what :class:`Delay` says), column j at c_j."""
 
     q: np.ndarray  # (n, 7) rad
     qd: np.ndarray  # (n, 7) rad/s, as measured
-    qd_lowpassed: np.ndarray  # (n, 7) rad/s, zero-phase low-passed at the cut-off of qdd
-    qdd: np.ndarray  # (n, 7) rad/s², zero-phase filtered
+    cutoffs_hz: tuple[float, ...]  # (7,) each joint's cut-off, Hz
+    qd_lowpassed: dict[float, np.ndarray]  # cut-off -> (n, 7) rad/s, zero-phase low-passed there
+    qdd: dict[float, np.ndarray]  # cut-off -> (n, 7) rad/s², its derivative
     rigid_torque: np.ndarray  # (n, 7) N·m, τ_rigid with the filtered q̈ (the torque gain's columns)
     residual: np.ndarray  # (n, 7) N·m, effort − τ_rigid with the filtered q̈
     residual_raw: np.ndarray  # (n, 7) N·m, effort − τ_rigid with the first difference of q̇
     delay_columns: np.ndarray  # (n, 7) −dτ_rigid/dt, N·m/s
     stamps_s: np.ndarray  # (n,) s
 
+    def joints_by_cutoff(self) -> list[tuple[float, np.ndarray]]:
+        """(cut-off, the joints at it) per distinct cut-off, ascending."""
+        c = np.asarray(self.cutoffs_hz)
+        return [(v, np.flatnonzero(c == v)) for v in sorted(set(self.cutoffs_hz))]
 
-def prepare(arm: ArmModel, rec: Recording, cutoff_hz: float) -> Prepared:
-    """The arrays of ``rec`` with q̇ low-passed at cutoff_hz before differentiating."""
+
+def prepare(arm: ArmModel, rec: Recording, cutoffs_hz: Sequence[float]) -> Prepared:
+    """The arrays of ``rec`` with q̇ low-passed before differentiating, joint j's at cutoffs_hz[j] (7,)."""
     stamps = rec.stamps_s
-    qd_lowpassed = zero_phase_lowpass(rec.qd, rec.rate_hz, cutoff_hz, segments=rec.segments)
-    qdd = zero_phase_acceleration(qd_lowpassed, rec.rate_hz, None, segments=rec.segments)
-    tau = arm.inverse_dynamics(rec.q, rec.qd, qdd)
+    cutoffs = tuple(float(c) for c in cutoffs_hz)
+    qd_lowpassed, qdd = {}, {}
+    tau = np.empty_like(rec.q)
+    for c in sorted(set(cutoffs)):
+        qd_lowpassed[c] = zero_phase_lowpass(rec.qd, rec.rate_hz, c, segments=rec.segments)
+        qdd[c] = zero_phase_acceleration(qd_lowpassed[c], rec.rate_hz, None, segments=rec.segments)
+        joints = [j for j in range(N) if cutoffs[j] == c]
+        tau[:, joints] = arm.inverse_dynamics(rec.q, rec.qd, qdd[c])[:, joints]
     residual = rec.effort - tau
     delay_columns = np.gradient(tau, stamps, axis=0)
     np.negative(delay_columns, out=delay_columns)
     residual_raw = rec.effort - arm.inverse_dynamics(rec.q, rec.qd, first_difference(rec.qd, stamps))
-    return Prepared(rec.q, rec.qd, qd_lowpassed, qdd, tau, residual, residual_raw, delay_columns, stamps)
+    return Prepared(rec.q, rec.qd, cutoffs, qd_lowpassed, qdd, tau, residual, residual_raw, delay_columns, stamps)
 
 
-def _block_regressor(arm: ArmModel, template: Effect, width: int, p: Prepared, lo: int, hi: int) -> np.ndarray:
-    """(hi − lo, 7, width) one column block of the layout on samples lo:hi (denoised world)."""
+def _block_parts(arm: ArmModel, template: Effect, width: int, p: Prepared, lo: int, hi: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """One column block of the layout on samples lo:hi (denoised world), as (joints, (hi − lo, 7, width))
+    pairs: the block's rows at those joints are the array's there; the joints of all pairs are the 7."""
     if isinstance(template, (Delay, TorqueGain)):
         out = np.zeros((hi - lo, N, width))
         idx = np.arange(N)
         out[:, idx, idx] = (p.delay_columns if isinstance(template, Delay) else p.rigid_torque)[lo:hi]
-        return out
-    qd = p.qd_lowpassed if isinstance(template, _FRICTION) else p.qd
-    return template.regressor(arm, p.q[lo:hi], qd[lo:hi], p.qdd[lo:hi])
+        return [(idx, out)]
+    parts = []
+    for c, joints in p.joints_by_cutoff():
+        qd = p.qd_lowpassed[c] if isinstance(template, _FRICTION) else p.qd
+        parts.append((joints, template.regressor(arm, p.q[lo:hi], qd[lo:hi], p.qdd[c][lo:hi])))
+    return parts
+
+
+def _block_regressor(arm: ArmModel, template: Effect, width: int, p: Prepared, lo: int, hi: int) -> np.ndarray:
+    """(hi − lo, 7, width) one column block of the layout on samples lo:hi (denoised world)."""
+    parts = _block_parts(arm, template, width, p, lo, hi)
+    if len(parts) == 1:
+        return parts[0][1]
+    out = np.empty_like(parts[0][1])
+    for joints, phi in parts:
+        out[:, joints] = phi[:, joints]
+    return out
 
 
 def regressor(arm: ArmModel, layout: ColumnLayout, p: Prepared, lo: int, hi: int) -> np.ndarray:
@@ -250,11 +279,12 @@ def joint_regressors(arm: ArmModel, layout: ColumnLayout, active: list[np.ndarra
     :func:`regressor` at joint j, without the columns that are zero there (the statistics pass)."""
     out = [np.empty((hi - lo, len(columns))) for columns in active]
     for template, start, width in layout.blocks:
-        phi = _block_regressor(arm, template, width, p, lo, hi)
-        for j, columns in enumerate(active):
-            a, b = np.searchsorted(columns, (start, start + width))
-            if b > a:
-                out[j][:, a:b] = phi[:, j, columns[a:b] - start]
+        for joints, phi in _block_parts(arm, template, width, p, lo, hi):
+            for j in joints:
+                columns = active[j]
+                a, b = np.searchsorted(columns, (start, start + width))
+                if b > a:
+                    out[j][:, a:b] = phi[:, j, columns[a:b] - start]
     return out
 
 
@@ -276,7 +306,7 @@ def active_columns(arm: ArmModel, layout: ColumnLayout) -> list[np.ndarray]:
     rng = np.random.default_rng(0)
     q = rng.uniform(arm.lower_rad, arm.upper_rad, (32, N))
     qd, qdd = rng.uniform(-1, 1, (2, 32, N))
-    probe = Prepared(q, qd, qd, qdd, np.ones((32, N)), qdd, qdd, np.ones((32, N)), np.arange(32) * 0.01)
+    probe = Prepared(q, qd, (1.0,) * N, {1.0: qd}, {1.0: qdd}, np.ones((32, N)), qdd, qdd, np.ones((32, N)), np.arange(32) * 0.01)
     phi = regressor(arm, layout, probe, 0, 32)
     return [np.flatnonzero(np.any(phi[:, j, :] != 0.0, axis=0)) for j in range(N)]
 
@@ -320,40 +350,33 @@ def recording_blocks(
     return out
 
 
-def cutoff_scores(arm: ArmModel, rec: Recording) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
-    """One training recording's part of the cut-off choice: (raw, sse) with raw (7,) the squared
-    rigid residual per joint with the first difference of q̇, and sse one (7,) per cut-off of
-    :data:`CUTOFF_GRID_HZ` below 0.45 · its rate, with q̇ low-passed there (no fit involved)."""
-    raw = np.sum((rec.effort - arm.inverse_dynamics(rec.q, rec.qd, first_difference(rec.qd, rec.stamps_s))) ** 2, axis=0)
+def cutoff_scores(arm: ArmModel, rec: Recording) -> np.ndarray:
+    """One training recording's part of the cut-off choice: (k, 7) its squared rigid residual per
+    joint with q̇ low-passed at each of the first k cut-offs of :data:`CUTOFF_GRID_HZ`, those below
+    0.45 · its rate (no fit involved)."""
     sse = []
     for cutoff in CUTOFF_GRID_HZ:
         if cutoff >= 0.45 * rec.rate_hz:
             break
         qdd = zero_phase_acceleration(rec.qd, rec.rate_hz, cutoff, segments=rec.segments)
         sse.append(np.sum((rec.effort - arm.inverse_dynamics(rec.q, rec.qd, qdd)) ** 2, axis=0))
-    return raw, tuple(sse)
+    return np.array(sse).reshape(-1, N)
 
 
-def choose_cutoff(scores: Sequence[tuple[np.ndarray, tuple[np.ndarray, ...]]]) -> float:
-    """The cut-off whose denoised rigid residual is smallest on the training data, from each training
-    recording's :func:`cutoff_scores` (added in the recordings' order); only cut-offs below 0.45 ·
-    every recording's rate are tried.
+def choose_cutoff(scores: Sequence[np.ndarray]) -> tuple[float, ...]:
+    """(7,) Hz, per joint the cut-off whose denoised rigid residual there is smallest on the training
+    data, from each training recording's :func:`cutoff_scores` (added in the recordings' order; the
+    lower cut-off on a tie); only cut-offs below 0.45 · every recording's rate are tried.
 
-    Each joint's squared error counts relative to its raw-world one, so that the joint with the
-    largest unmodelled torque (s1, with Baxter's spring) does not decide the filter for all.
+    Per joint, because what q̈'s noise costs differs by joint: every joint's noise enters joint j's
+    torque through row j of M(q), heaviest at the shoulder, while the motion's own acceleration,
+    which a low cut-off smooths away, is fastest at the wrist (on the real recordings s1's best is
+    1.5 or 6 Hz, w0's 8 or 12 Hz; one cut-off for all had to trade one joint against another).
     """
-    raw = np.zeros(N)
-    for r, _ in scores:
-        raw += r
-    best, best_score = CUTOFF_GRID_HZ[0], np.inf
-    for k, cutoff in enumerate(CUTOFF_GRID_HZ[: min(len(s) for _, s in scores)]):
-        sse = np.zeros(N)
-        for _, s in scores:
-            sse += s[k]
-        score = float(np.sum(sse / np.maximum(raw, 1e-300)))
-        if score < best_score:
-            best, best_score = cutoff, score
-    return best
+    sse = np.zeros((min(len(s) for s in scores), N))
+    for s in scores:
+        sse += s[: len(sse)]
+    return tuple(CUTOFF_GRID_HZ[k] for k in np.argmin(sse, axis=0))
 
 
 # ----------------------------------------------------------------------------- pools of blocks

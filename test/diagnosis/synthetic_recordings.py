@@ -79,11 +79,11 @@ def recording(
     return Recording(arm.side, tuple(arm.joint_names), stamps_ns, q, qd_recorded, effort)
 
 
-def blocks_of(arm: ArmModel, named: Sequence[tuple[str, Recording]], cutoff_hz: float, parts: int = 4) -> list[Block]:
-    """Each recording's statistics in ``parts`` contiguous blocks, as the diagnosis makes them."""
+def blocks_of(arm: ArmModel, named: Sequence[tuple[str, Recording]], cutoffs_hz: tuple[float, ...], parts: int = 4) -> list[Block]:
+    """Each recording's statistics in ``parts`` contiguous blocks, q̇ low-passed at cutoffs_hz (7,), as the diagnosis makes them."""
     layout = column_layout()
     active = active_columns(arm, layout)
-    return [b for label, rec in named for b in recording_blocks(arm, layout, active, label, prepare(arm, rec, cutoff_hz), parts)]
+    return [b for label, rec in named for b in recording_blocks(arm, layout, active, label, prepare(arm, rec, cutoffs_hz), parts)]
 
 
 def block_edges(n: int, parts: int) -> list[tuple[int, int]]:
@@ -117,20 +117,31 @@ def friction_diagnosis() -> tuple[DiagnosisResult, list[tuple[str, Recording]], 
     return diagnose(arm, train, test), train, test
 
 
-def lowpassed_velocity(rec: Recording, cutoff_hz: float) -> np.ndarray:
+def _per_joint(cutoffs_hz: float | Sequence[float]) -> list[float]:
+    return [float(cutoffs_hz)] * 7 if np.isscalar(cutoffs_hz) else [float(c) for c in cutoffs_hz]
+
+
+def lowpassed_velocity(rec: Recording, cutoffs_hz: float | Sequence[float]) -> np.ndarray:
     """(n, 7) rad/s, the recording's q̇ low-passed forwards and backwards by scipy (Butterworth,
-    order 2, at cutoff_hz): the denoised world's q̇."""
+    order 2; column j at cutoffs_hz[j], or one cut-off for all): the denoised world's q̇."""
     from scipy.signal import butter, sosfiltfilt
 
-    return sosfiltfilt(butter(2, cutoff_hz, fs=rec.rate_hz, output="sos"), rec.qd, axis=0)
+    cutoffs = _per_joint(cutoffs_hz)
+    return np.stack([sosfiltfilt(butter(2, c, fs=rec.rate_hz, output="sos"), rec.qd[:, j]) for j, c in enumerate(cutoffs)], axis=1)
 
 
-def reference_residuals(arm: ArmModel, rec: Recording, cutoff_hz: float) -> tuple[np.ndarray, np.ndarray]:
+def reference_residuals(arm: ArmModel, rec: Recording, cutoffs_hz: float | Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
     """(raw, denoised) rigid residuals (n, 7) N·m of a recording, without the package's dynamics:
-    Pinocchio's RNEA with q̈ the first difference of q̇ (q̈_0 = 0), and with q̈ the central
-    difference of q̇ low-passed forwards and backwards by scipy (Butterworth, order 2, at cutoff_hz)."""
+    Pinocchio's RNEA with q̈ the first difference of q̇ (q̈_0 = 0), and, for joint j, with every
+    joint's q̈ the central difference of q̇ low-passed forwards and backwards by scipy (Butterworth,
+    order 2) at joint j's cut-off cutoffs_hz[j] (or one cut-off for all)."""
     t = rec.stamps_s
     qdd_raw = np.zeros_like(rec.qd)
     qdd_raw[1:] = np.diff(rec.qd, axis=0) / np.diff(t)[:, None]
-    qdd = np.gradient(lowpassed_velocity(rec, cutoff_hz), 1.0 / rec.rate_hz, axis=0)
-    return rec.effort - rigid_torque(arm, rec.q, rec.qd, qdd_raw), rec.effort - rigid_torque(arm, rec.q, rec.qd, qdd)
+    cutoffs = _per_joint(cutoffs_hz)
+    tau = np.empty_like(rec.qd)
+    for c in set(cutoffs):
+        qdd = np.gradient(lowpassed_velocity(rec, c), 1.0 / rec.rate_hz, axis=0)
+        at = [j for j in range(7) if cutoffs[j] == c]
+        tau[:, at] = rigid_torque(arm, rec.q, rec.qd, qdd)[:, at]
+    return rec.effort - rigid_torque(arm, rec.q, rec.qd, qdd_raw), rec.effort - tau

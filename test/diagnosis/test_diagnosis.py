@@ -61,10 +61,11 @@ def real_recordings():
 # ----------------------------------------------------------------------------- an independent judge
 def held_out_from_yaml(text: str, arm, test) -> tuple[float, dict[str, np.ndarray]]:
     """(MSE per sample summed over joints, each effect's share RMS per joint) of the test recordings
-    with the effects of an effects.yaml text, computed without the diagnosis' own numbers."""
+    with the effects of an effects.yaml text, computed without the diagnosis' own numbers: joint j's
+    column with every joint's q̇ low-passed by scipy at joint j's cut-off (``q_ddot.cutoff_hz``)."""
     doc = yaml.safe_load(text)
     effects = effects_from_dict(doc["effects"])
-    cutoff = float(doc["q_ddot"]["cutoff_hz"])
+    cutoffs = [float(doc["q_ddot"]["cutoff_hz"][name]) for name in arm.joint_names]
     compensated = arm
     for e in effects:
         if isinstance(e, (Payload, InertialError)):
@@ -74,23 +75,30 @@ def held_out_from_yaml(text: str, arm, test) -> tuple[float, dict[str, np.ndarra
     shares: dict[str, list[np.ndarray]] = {e.name: [] for e in effects}
     for _, rec in test:
         rate = rec.rate_hz
-        qd_smooth = sosfiltfilt(butter(2, cutoff, fs=rate, output="sos"), rec.qd, axis=0)
-        qdd = np.gradient(qd_smooth, 1.0 / rate, axis=0)
-        tau = np.array([rigid.rnea(q, v, a) for q, v, a in zip(rec.q, rec.qd, qdd)])
-        tau_nominal = np.array([rigid_nominal.rnea(q, v, a) for q, v, a in zip(rec.q, rec.qd, qdd)])
-        model = tau.copy()
-        t = rec.stamps_s
-        for e in effects:
-            if isinstance(e, (Payload, InertialError)):
-                share = tau - tau_nominal
-            elif isinstance(e, Delay):
-                share = np.stack([np.interp(t - e.delay_s[j], t, tau_nominal[:, j]) for j in range(7)], axis=1) - tau_nominal
-                model = model + share
-            else:
-                friction = isinstance(e, (ViscousFriction, CoulombFriction, StribeckFriction))
-                share = e.torque(arm, rec.q, qd_smooth if friction else rec.qd, qdd)
-                model = model + share
-            shares[e.name].append(share)
+        model = np.empty_like(rec.q)
+        share_of = {e.name: np.empty_like(rec.q) for e in effects}
+        for cutoff in set(cutoffs):
+            at = [j for j, c in enumerate(cutoffs) if c == cutoff]
+            qd_smooth = sosfiltfilt(butter(2, cutoff, fs=rate, output="sos"), rec.qd, axis=0)
+            qdd = np.gradient(qd_smooth, 1.0 / rate, axis=0)
+            tau = np.array([rigid.rnea(q, v, a) for q, v, a in zip(rec.q, rec.qd, qdd)])
+            tau_nominal = np.array([rigid_nominal.rnea(q, v, a) for q, v, a in zip(rec.q, rec.qd, qdd)])
+            here = tau.copy()
+            t = rec.stamps_s
+            for e in effects:
+                if isinstance(e, (Payload, InertialError)):
+                    share = tau - tau_nominal
+                elif isinstance(e, Delay):
+                    share = np.stack([np.interp(t - e.delay_s[j], t, tau_nominal[:, j]) for j in range(7)], axis=1) - tau_nominal
+                    here = here + share
+                else:
+                    friction = isinstance(e, (ViscousFriction, CoulombFriction, StribeckFriction))
+                    share = e.torque(arm, rec.q, qd_smooth if friction else rec.qd, qdd)
+                    here = here + share
+                share_of[e.name][:, at] = share[:, at]
+            model[:, at] = here[:, at]
+        for name, share in share_of.items():
+            shares[name].append(share)
         total += float(np.sum((rec.effort - model) ** 2))
         n += len(rec)
     return total / n, {k: np.sqrt(np.mean(np.concatenate(v) ** 2, axis=0)) for k, v in shares.items()}

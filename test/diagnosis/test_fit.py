@@ -17,7 +17,7 @@ from baxter_dynamics_ros.diagnosis.statistics import Pool, column_layout, prepar
 from baxter_dynamics_ros.diagnosis.validation import validation_arm
 
 N = 7
-CUTOFF_HZ = 4.0
+CUTOFF_HZ = (4.0,) * N
 
 
 @pytest.fixture(scope="module")

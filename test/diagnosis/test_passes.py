@@ -72,8 +72,9 @@ def test_gap_summaries_count_every_test_file_once(arm, run) -> None:
 
 def test_figures_of_a_recording_longer_than_a_chunk(arm) -> None:
     """test_figures on a 9000-sample recording (longer than the pass's 8192-row chunk) with viscous
-    friction x fitted: every sample's final residual is the denoised one minus x ⊙ q̇ (q̇ low-passed
-    at the cut-off by scipy), and the gap sums count all 9000 samples."""
+    friction x fitted and a cut-off per joint: every sample's final residual is the denoised one
+    (joint j's with every q̈ at its cut-off) minus x ⊙ q̇ (q̇_j low-passed at joint j's cut-off by
+    scipy), and the gap sums count all 9000 samples."""
     rec = recording(arm, 71, 90.0, viscous=1.0)
     assert len(rec) > CHUNK
     layout = column_layout()
@@ -82,7 +83,7 @@ def test_figures_of_a_recording_longer_than_a_chunk(arm) -> None:
     hist = angle_histogram(rec.q)
     wanted = wanted_bins(hist)
     edges = quantile_edges(hist, wanted, [values_in_bins(rec.q, wanted)])
-    cutoff = 4.0
+    cutoff = (4.0, 1.5, 4.0, 6.0, 12.0, 8.0, 12.0)
     figures = pass_test_figures(arm, layout, cutoff, np.asarray(viscous.columns), x, edges, 1, InMemory("long", rec))
     raw, den = reference_residuals(arm, rec, cutoff)
     assert figures.raw.samples == figures.filtered.samples == len(rec)

@@ -1,7 +1,8 @@
 """The statistics pass (diagnosis/statistics.py): each block's sufficient statistics against sums
 written out with numpy over the block's samples (sample ranges by integer arithmetic), on residuals
 computed without the package's dynamics (Pinocchio's RNEA, scipy's zero-phase filter), and on
-regressor columns built here (1 for an offset, the low-passed q̇ for viscous friction)."""
+regressor columns built here (1 for an offset, the low-passed q̇ for viscous friction, its central
+difference for an armature), each joint at its own cut-off."""
 
 from __future__ import annotations
 
@@ -9,12 +10,15 @@ import numpy as np
 import pytest
 from synthetic_recordings import EFFORT_QUANTUM_NM, block_edges, lowpassed_velocity, recording, reference_residuals, rigid_torque
 
+from baxter_dynamics_ros.core.arm_model import link_parameters
 from baxter_dynamics_ros.core.recording import Recording
 from baxter_dynamics_ros.diagnosis.statistics import CHUNK, Pool, active_columns, column_layout, prepare, recording_blocks
 from baxter_dynamics_ros.diagnosis.validation import validation_arm
 
 N = 7
-CUTOFF_HZ = 4.0
+CUTOFF_HZ = (4.0,) * N
+#: A cut-off per joint (Hz), as the diagnosis chooses them: joint j's rows at its own.
+PER_JOINT_HZ = (4.0, 1.5, 4.0, 6.0, 12.0, 8.0, 12.0)
 
 
 @pytest.mark.parametrize(("seconds", "parts"), [(12.03, 4), (12.0, 7), (90.0, 1)], ids=["1203-in-4", "1200-in-7", "longer-than-a-chunk"])
@@ -22,17 +26,25 @@ def test_block_statistics_are_sums_over_contiguous_blocks(seconds: float, parts:
     """Blocks cover the recording exactly, in order (block k: samples ⌊kn/parts⌋ to ⌊(k+1)n/parts⌋);
     each one's samples, span, r·r (denoised and raw) and the offset's and viscous friction's entries of
     H and b equal numpy's sums over those samples. The 90 s case is one block of 9000 samples, longer
-    than the pass's chunk of 8192 rows, so its last partial chunk must count too."""
+    than the pass's chunk of 8192 rows, so its last partial chunk must count too. Each joint has its
+    own cut-off: its residual and columns are those of its cut-off, the inertial columns' with every
+    joint's q̈ there (Y π = τ, so b's inertial entries times the arm's parameters π are Σ τ_j r_j with
+    Pinocchio's τ)."""
     arm = validation_arm()
     rec = recording(arm, 61, seconds, viscous=1.0)
     n = len(rec)
     assert parts > 1 or n > CHUNK
     layout = column_layout()
-    blocks = recording_blocks(arm, layout, active_columns(arm, layout), "r", prepare(arm, rec, CUTOFF_HZ), parts)
-    raw, den = reference_residuals(arm, rec, CUTOFF_HZ)
-    qd_lowpassed = lowpassed_velocity(rec, CUTOFF_HZ)
+    blocks = recording_blocks(arm, layout, active_columns(arm, layout), "r", prepare(arm, rec, PER_JOINT_HZ), parts)
+    raw, den = reference_residuals(arm, rec, PER_JOINT_HZ)
+    qd_lowpassed = lowpassed_velocity(rec, PER_JOINT_HZ)
+    qdd = np.gradient(qd_lowpassed, 1.0 / rec.rate_hz, axis=0)
+    tau = rec.effort - den
     offset = next(c for c in layout.candidates if c.name == "torque_offset")
     viscous = next(c for c in layout.candidates if c.name == "viscous_friction")
+    armature = next(c for c in layout.candidates if c.name == "armature")
+    inertial = next(c for c in layout.candidates if c.name == "inertial_error").columns
+    pi = np.concatenate([link_parameters(link) for link in arm.links])
     assert [b.index for b in blocks] == list(range(parts))
     for block, (lo, hi) in zip(blocks, block_edges(n, parts)):
         assert block.samples == hi - lo
@@ -47,6 +59,9 @@ def test_block_statistics_are_sums_over_contiguous_blocks(seconds: float, parts:
             assert block.H[j, o, v] == pytest.approx(float(qd.sum()), rel=1e-9, abs=1e-9)
             assert block.b[j, o] == pytest.approx(float(den[lo:hi, j].sum()), rel=1e-6, abs=1e-6)
             assert block.b[j, v] == pytest.approx(float(qd @ den[lo:hi, j]), rel=1e-6, abs=1e-6)
+            a = armature.columns[j]
+            assert block.H[j, a, a] == pytest.approx(float(qdd[lo:hi, j] @ qdd[lo:hi, j]), rel=1e-6)
+            assert float(block.b[j, inertial] @ pi) == pytest.approx(float(tau[lo:hi, j] @ den[lo:hi, j]), rel=1e-6, abs=1e-6)
     pool = Pool.of(blocks)
     assert pool.samples == n
 
