@@ -25,7 +25,7 @@ from ..core.recording import Recording, require_length
 from ..errors import DiagnosisError, RecordingError
 from .gap_analysis import GapSums, angle_histogram, gap_sums, values_in_bins
 from .sources import Source
-from .statistics import CHUNK, Block, ColumnLayout, cutoff_scores, explained, prepare, recording_blocks
+from .statistics import CHUNK, CUTOFF_GRID_HZ, MAX_CUTOFF_OF_RATE, Block, ColumnLayout, cutoff_grid, cutoff_scores, explained, prepare, recording_blocks
 
 __all__ = ["Reduction", "Screening", "TestFigures", "check_recording", "reduce", "screen", "test_figures"]
 
@@ -36,7 +36,8 @@ MIN_MODEL_CORRELATION = 0.5
 
 def check_recording(arm: ArmModel, label: str, rec: Recording, what: str) -> None:
     """Refuse (DiagnosisError) what the method cannot diagnose: a recording of another arm, shorter
-    than it needs (:func:`require_length`; ``what``: "training" or "test"), with a joint whose effort
+    than it needs (:func:`require_length`; ``what``: "training" or "test"), sampled too slowly for
+    the q̈ filter's lowest cut-off (:func:`~.statistics.cutoff_grid`), with a joint whose effort
     never changes, or whose effort follows the rigid-body torque at no joint (not this arm's torque,
     not in N·m, or noise)."""
     if rec.side != arm.side:
@@ -45,6 +46,11 @@ def check_recording(arm: ArmModel, label: str, rec: Recording, what: str) -> Non
         require_length([(label, rec)], what)
     except RecordingError as err:
         raise DiagnosisError(str(err)) from err
+    if not cutoff_grid(rec.rate_hz):
+        raise DiagnosisError(
+            f"{label}: sampled at {rec.rate_hz:.3g} Hz; the diagnosis low-passes q̇ at {CUTOFF_GRID_HZ[0]:g} Hz or more, "
+            f"which needs a rate above {CUTOFF_GRID_HZ[0] / MAX_CUTOFF_OF_RATE:.3g} Hz"
+        )
     flat = [n for n, span in zip(arm.joint_names, np.ptp(rec.effort, axis=0)) if span == 0.0]
     if flat:
         raise DiagnosisError(

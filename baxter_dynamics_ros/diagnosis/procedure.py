@@ -151,7 +151,7 @@ def diagnose(
         raise DiagnosisError(str(err)) from err
     layout = column_layout()
     active = active_columns(arm, layout)
-    cutoffs = choose_cutoff([s.scores for s in train_screens])
+    cutoffs = choose_cutoff([s.scores for s in train_screens], min(s.rate_hz for s in screened))
     histogram = sum(s.histogram for s in test_screens)
     wanted = wanted_bins(histogram)
     step()

@@ -45,7 +45,9 @@ from ..core.joints import S1
 from ..core.recording import Recording
 
 __all__ = [
+    "CUTOFF_GRID_HZ",
     "FAMILIES",
+    "MAX_CUTOFF_OF_RATE",
     "SPANNED_BY_SPRING",
     "Block",
     "Candidate",
@@ -54,6 +56,7 @@ __all__ = [
     "Prepared",
     "choose_cutoff",
     "column_layout",
+    "cutoff_grid",
     "cutoff_scores",
     "explained",
     "joint_regressors",
@@ -63,6 +66,8 @@ __all__ = [
 
 #: Cut-offs (Hz) tried for the denoised world's zero-phase low-pass on q̇.
 CUTOFF_GRID_HZ = (1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0)
+#: A cut-off is tried only below this fraction of a recording's rate (a margin under Nyquist's 0.5).
+MAX_CUTOFF_OF_RATE = 0.45
 #: Prior standard deviation of the s1 spring's shape coefficients (linear N·m/rad, cosine, sine N·m)
 #: about zero; its preload has none. Two real units' springs have them within ±30 N·m when the
 #: recordings span s1 widely; on a narrow span the four terms trade off, and without the prior a
@@ -350,30 +355,34 @@ def recording_blocks(
     return out
 
 
+def cutoff_grid(rate_hz: float) -> tuple[float, ...]:
+    """The cut-offs of :data:`CUTOFF_GRID_HZ` that a recording at rate_hz (Hz) can be filtered at:
+    those below :data:`MAX_CUTOFF_OF_RATE` · rate_hz (none below 3.3 Hz)."""
+    return tuple(c for c in CUTOFF_GRID_HZ if c < MAX_CUTOFF_OF_RATE * rate_hz)
+
+
 def cutoff_scores(arm: ArmModel, rec: Recording) -> np.ndarray:
     """One training recording's part of the cut-off choice: (k, 7) its squared rigid residual per
-    joint with q̇ low-passed at each of the first k cut-offs of :data:`CUTOFF_GRID_HZ`, those below
-    0.45 · its rate (no fit involved)."""
+    joint with q̇ low-passed at each of the k cut-offs of :func:`cutoff_grid` at its rate (no fit involved)."""
     sse = []
-    for cutoff in CUTOFF_GRID_HZ:
-        if cutoff >= 0.45 * rec.rate_hz:
-            break
+    for cutoff in cutoff_grid(rec.rate_hz):
         qdd = zero_phase_acceleration(rec.qd, rec.rate_hz, cutoff, segments=rec.segments)
         sse.append(np.sum((rec.effort - arm.inverse_dynamics(rec.q, rec.qd, qdd)) ** 2, axis=0))
     return np.array(sse).reshape(-1, N)
 
 
-def choose_cutoff(scores: Sequence[np.ndarray]) -> tuple[float, ...]:
+def choose_cutoff(scores: Sequence[np.ndarray], lowest_rate_hz: float) -> tuple[float, ...]:
     """(7,) Hz, per joint the cut-off whose denoised rigid residual there is smallest on the training
     data, from each training recording's :func:`cutoff_scores` (added in the recordings' order; the
-    lower cut-off on a tie); only cut-offs below 0.45 · every recording's rate are tried.
+    lower cut-off on a tie); only the cut-offs of :func:`cutoff_grid` at lowest_rate_hz, the lowest
+    rate of every recording, training and test, are tried (every recording is filtered at them).
 
     Per joint, because what q̈'s noise costs differs by joint: every joint's noise enters joint j's
     torque through row j of M(q), heaviest at the shoulder, while the motion's own acceleration,
     which a low cut-off smooths away, is fastest at the wrist (on the real recordings s1's best is
     1.5 or 6 Hz, w0's 8 or 12 Hz; one cut-off for all had to trade one joint against another).
     """
-    sse = np.zeros((min(len(s) for s in scores), N))
+    sse = np.zeros((min(len(cutoff_grid(lowest_rate_hz)), *(len(s) for s in scores)), N))
     for s in scores:
         sse += s[: len(sse)]
     return tuple(CUTOFF_GRID_HZ[k] for k in np.argmin(sse, axis=0))

@@ -90,3 +90,25 @@ def test_figures_of_a_recording_longer_than_a_chunk(arm) -> None:
     np.testing.assert_allclose(figures.series["final"], den - x * lowpassed_velocity(rec, cutoff), rtol=1e-6, atol=1e-7)
     np.testing.assert_allclose(figures.filtered.sum_r2, np.sum(den**2, axis=0), rtol=1e-6)
     assert figures.end_s == pytest.approx(rec.stamps_s[-1] + 0.01)
+
+
+def test_a_slow_test_recording_bounds_every_cutoff(arm) -> None:
+    """Training at 100 Hz, testing at 12 Hz: the cut-offs are chosen among those every recording can
+    be filtered at (below 0.45 · 12 Hz), not the training files' own best above the test file's
+    Nyquist rate (which failed in the test pass); the denoised test figure is the reference one there."""
+    from baxter_dynamics_ros.diagnosis.procedure import diagnose
+
+    train = [("A", recording(arm, 81)), ("B", recording(arm, 82))]
+    slow = recording(arm, 83, 30.0, rate_hz=12.0)
+    result = diagnose(arm, train, [("slow", slow)])
+    assert max(result.cutoff_hz) < 0.45 * 12.0
+    np.testing.assert_allclose(result.denoised_test_rms, _rms([reference_residuals(arm, slow, result.cutoff_hz)[1]]), rtol=1e-6)
+
+
+def test_a_recording_too_slow_for_the_filter_is_refused(arm) -> None:
+    """At 3 Hz no cut-off of the grid (1.5 Hz and up) lies below 0.45 of the rate: refused, saying so."""
+    from baxter_dynamics_ros.diagnosis.passes import check_recording
+    from baxter_dynamics_ros.errors import DiagnosisError
+
+    with pytest.raises(DiagnosisError, match=r"slow: sampled at 3 Hz; .* needs a rate above 3.33 Hz"):
+        check_recording(arm, "slow", recording(arm, 84, 100.0, rate_hz=3.0), "test")

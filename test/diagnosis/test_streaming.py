@@ -75,7 +75,7 @@ def test_the_cutoff_by_parts_is_the_best_of_the_whole() -> None:
         sse.append(sum(np.sum((r.effort - arm.inverse_dynamics(r.q, r.qd, a)) ** 2, axis=0) for r, a in zip(recs, qdds)))
     best = tuple(CUTOFF_GRID_HZ[k] for k in np.argmin(np.array(sse), axis=0))
     assert len(set(best)) > 1  # the joints differ here, so one cut-off for all cannot pass
-    assert choose_cutoff([cutoff_scores(arm, r) for r in recs]) == best
+    assert choose_cutoff([cutoff_scores(arm, r) for r in recs], min(r.rate_hz for r in recs)) == best
 
 
 @dataclass
