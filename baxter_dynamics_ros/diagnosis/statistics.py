@@ -203,7 +203,7 @@ def column_layout() -> ColumnLayout:
 
 
 # ----------------------------------------------------------------------------- one recording
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Prepared:
     """A recording's arrays in the denoised world, joint j's at its own cut-off ``cutoffs_hz[j]``:
     per distinct cut-off c, the low-passed q̇ (friction's argument) and q̈ of every joint; rigid
@@ -242,7 +242,10 @@ def prepare(arm: ArmModel, rec: Recording, cutoffs_hz: Sequence[float]) -> Prepa
     delay_columns = np.gradient(tau, stamps, axis=0)
     np.negative(delay_columns, out=delay_columns)
     residual_raw = rec.effort - arm.inverse_dynamics(rec.q, rec.qd, first_difference(rec.qd, stamps))
-    return Prepared(rec.q, rec.qd, cutoffs, qd_lowpassed, qdd, tau, residual, residual_raw, delay_columns, stamps)
+    return Prepared(
+        q=rec.q, qd=rec.qd, cutoffs_hz=cutoffs, qd_lowpassed=qd_lowpassed, qdd=qdd, rigid_torque=tau, residual=residual,
+        residual_raw=residual_raw, delay_columns=delay_columns, stamps_s=stamps,
+    )  # fmt: skip
 
 
 def _block_parts(arm: ArmModel, template: Effect, width: int, p: Prepared, lo: int, hi: int) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -311,7 +314,11 @@ def active_columns(arm: ArmModel, layout: ColumnLayout) -> list[np.ndarray]:
     rng = np.random.default_rng(0)
     q = rng.uniform(arm.lower_rad, arm.upper_rad, (32, N))
     qd, qdd = rng.uniform(-1, 1, (2, 32, N))
-    probe = Prepared(q, qd, (1.0,) * N, {1.0: qd}, {1.0: qdd}, np.ones((32, N)), qdd, qdd, np.ones((32, N)), np.arange(32) * 0.01)
+    ones = np.ones((32, N))
+    probe = Prepared(
+        q=q, qd=qd, cutoffs_hz=(1.0,) * N, qd_lowpassed={1.0: qd}, qdd={1.0: qdd}, rigid_torque=ones, residual=qdd,
+        residual_raw=qdd, delay_columns=ones, stamps_s=np.arange(32) * 0.01,
+    )  # fmt: skip
     phi = regressor(arm, layout, probe, 0, 32)
     return [np.flatnonzero(np.any(phi[:, j, :] != 0.0, axis=0)) for j in range(N)]
 

@@ -28,6 +28,7 @@ from baxter_dynamics_ros.core.recording import Recording
 from baxter_dynamics_ros.diagnosis.inertial_fit import COM_BOX_M, MASS_RANGE, PAYLOAD_COM_BOX_M, PAYLOAD_MASS_KG
 from baxter_dynamics_ros.diagnosis.procedure import CANDIDATE_NAMES, diagnose
 from baxter_dynamics_ros.diagnosis.report import effects_yaml
+from baxter_dynamics_ros.diagnosis.statistics import CUTOFF_GRID_HZ
 from baxter_dynamics_ros.diagnosis.validation import (
     HARD,
     NO_OP_NM,
@@ -338,6 +339,14 @@ def test_diagnose_command_writes_report_json_and_effects(tmp_path: Path) -> None
     assert "s1_spring" in [e.name for e in effects]
     raw = yaml.safe_load((out / "effects.yaml").read_text())
     assert raw["joints"]["s1_spring"] == ["left_s1"] and raw["q_ddot"]["cutoff_hz"] == doc["q_ddot_cutoff_hz"]
+    # Each joint's cut-off, in the grid, said in words where acceleration_noise gives its filter.
+    cutoffs = doc["q_ddot_cutoff_hz"]
+    assert list(cutoffs) == doc["joints"] and set(cutoffs.values()) <= set(CUTOFF_GRID_HZ)
+    noise = next(e for e in doc["effects"] if e["name"] == "acceleration_noise")
+    values = sorted(set(cutoffs.values()))
+    assert len(values) > 1, cutoffs  # on these recordings the joints' best cut-offs differ
+    words = "; ".join(f"{hz:g} Hz at " + ", ".join(n.split("_", 1)[1] for n, c in cutoffs.items() if c == hz) for hz in values)
+    assert noise["variant"] == f"zero-phase low-pass {words}", noise["variant"]
     html = (out / "report.html").read_text()
     # Self-contained: no address outside the embedded images (whose base64 may spell "http").
     assert "data:image/png;base64," in html and "http" not in re.sub(r"data:image/png;base64,[A-Za-z0-9+/=]+", "", html.split("<body>", 1)[1])
