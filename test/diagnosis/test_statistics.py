@@ -29,7 +29,7 @@ def test_block_statistics_are_sums_over_contiguous_blocks(seconds: float, parts:
     than the pass's chunk of 8192 rows, so its last partial chunk must count too. Each joint has its
     own cut-off: its residual and columns are those of its cut-off, the inertial columns' with every
     joint's q̈ there (Y π = τ, so b's inertial entries times the arm's parameters π are Σ τ_j r_j with
-    Pinocchio's τ)."""
+    Pinocchio's τ), the torque gain's τ_j and the delay's −dτ_j/dt with that τ."""
     arm = validation_arm()
     rec = recording(arm, 61, seconds, viscous=1.0)
     n = len(rec)
@@ -43,6 +43,9 @@ def test_block_statistics_are_sums_over_contiguous_blocks(seconds: float, parts:
     offset = next(c for c in layout.candidates if c.name == "torque_offset")
     viscous = next(c for c in layout.candidates if c.name == "viscous_friction")
     armature = next(c for c in layout.candidates if c.name == "armature")
+    delay = next(c for c in layout.candidates if c.name == "delay")
+    gain = next(c for c in layout.candidates if c.name == "torque_gain")
+    tau_rate = np.gradient(tau, rec.stamps_s, axis=0)
     inertial = next(c for c in layout.candidates if c.name == "inertial_error").columns
     pi = np.concatenate([link_parameters(link) for link in arm.links])
     assert [b.index for b in blocks] == list(range(parts))
@@ -62,6 +65,9 @@ def test_block_statistics_are_sums_over_contiguous_blocks(seconds: float, parts:
             a = armature.columns[j]
             assert block.H[j, a, a] == pytest.approx(float(qdd[lo:hi, j] @ qdd[lo:hi, j]), rel=1e-6)
             assert float(block.b[j, inertial] @ pi) == pytest.approx(float(tau[lo:hi, j] @ den[lo:hi, j]), rel=1e-6, abs=1e-6)
+            d, g = delay.columns[j], gain.columns[j]
+            assert block.H[j, d, d] == pytest.approx(float(tau_rate[lo:hi, j] @ tau_rate[lo:hi, j]), rel=1e-6)
+            assert block.H[j, g, g] == pytest.approx(float(tau[lo:hi, j] @ tau[lo:hi, j]), rel=1e-6)
     pool = Pool.of(blocks)
     assert pool.samples == n
 
