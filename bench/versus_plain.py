@@ -69,6 +69,8 @@ class Rotation:
     #: joint suffix of a miss against plain → the plain fit's held-out RMS there, N·m, when it may not
     #: take the effects at that joint that diagnose does not apply there (:func:`withheld`)
     plain_without: dict[str, float] = field(default_factory=dict)
+    #: (7,) Hz, diagnose's q̇ low-pass per joint (its ``q_ddot_cutoff_hz``)
+    diagnose_cutoff_hz: tuple[float, ...] = ()
 
 
 def datasets(root: Path = DATA) -> list[Path]:
@@ -122,6 +124,7 @@ def compare_dataset(
                 plain.selected, tuple(e["name"] for e in report["effects"] if e["selected"]),
                 {e["name"]: tuple(j.split("_", 1)[-1] for j in e["joints"]) for e in report["effects"] if e["selected"]},
                 {e["name"]: {j.split("_", 1)[-1]: why for j, why in e["not_at"].items()} for e in report["effects"]},
+                diagnose_cutoff_hz=tuple(float(c) for c in report["q_ddot_cutoff_hz"].values()),
             )
             without = {}
             for _, _, joint, against in misses([rotation]):
@@ -193,7 +196,8 @@ def page(rotations: Sequence[Rotation], elapsed_s: float, command: str, plain_cu
         "forward selection by leave-one-recording-out error, per joint for per-joint effects, 5 % to add (the larger of "
         "nested alternatives only if it pays 5 % more than the smaller); offsets on the test recording: the training "
         "recordings' mean, as `diagnose` writes out;",
-        "- **rigid (denoised)**: `diagnose`'s rigid-body model with its filtered q̈ (`denoised.test_rms`);",
+        "- **rigid (denoised)**: `diagnose`'s rigid-body model with its filtered q̈ (`denoised.test_rms`; q̇ low-passed "
+        "at each joint's own cut-off, chosen on the training data, the table's last row);",
         "- **diagnose**: `baxter-dynamics diagnose --train … --test … --arm left --jobs 1` (`final.test_rms`).",
         "",
         "The plain fit is a yardstick of held-out error only, not of attribution: fitted freely, `inertial_error` can "
@@ -217,7 +221,8 @@ def page(rotations: Sequence[Rotation], elapsed_s: float, command: str, plain_cu
         for r in rots:
             lines += [f"### Test on `{r.test}`", "", header, rule,
                       _row("plain", r.plain), _row("rigid (denoised)", r.rigid), _row("diagnose", r.diagnose),
-                      _row("ratio diagnose/plain", r.diagnose / r.plain), "",
+                      _row("ratio diagnose/plain", r.diagnose / r.plain),
+                      "| diagnose's q̇ cut-off [Hz] | " + " | ".join(f"{c:g}" for c in r.diagnose_cutoff_hz) + " |", "",
                       f"Plain fit selected: {', '.join(r.plain_selected) or 'nothing'}.", "",
                       f"`diagnose` selected: {', '.join(r.diagnose_selected) or 'nothing'}.", ""]
     found = misses(rotations)
