@@ -369,12 +369,29 @@ def cutoff_grid(rate_hz: float) -> tuple[float, ...]:
 
 
 def cutoff_scores(arm: ArmModel, rec: Recording) -> np.ndarray:
-    """One training recording's part of the cut-off choice: (k, 7) its squared rigid residual per
-    joint with q̇ low-passed at each of the k cut-offs of :func:`cutoff_grid` at its rate (no fit involved)."""
+    """One training recording's part of the cut-off choice: (k, 7) per joint the squared rigid
+    residual with q̇ low-passed at each of the k cut-offs of :func:`cutoff_grid` at its rate, less
+    the part that torque no filter can change explains: the recording's own offset at every joint,
+    and at s1 the s1 spring's torque (its columns 1, q, cos q, sin q of q_s1), least squares.
+
+    Without that, s1's choice followed the spring: its tens of N·m, correlated with the motion, made
+    the residual dip wherever the filter cut the motion's own acceleration, lowest at the grid's
+    floor (with a floor of 0.75 Hz one real rotation took 1 Hz at s1 and its held-out s1 went
+    0.79 → 3.25 N·m); with it the choice does not move when the grid is widened to 0.75–24 Hz.
+    """
+    qs1 = rec.q[:, S1]
+    offset = np.ones((len(rec), 1))
+    spring = np.column_stack([offset[:, 0], qs1, np.cos(qs1), np.sin(qs1)])
     sse = []
     for cutoff in cutoff_grid(rec.rate_hz):
         qdd = zero_phase_acceleration(rec.qd, rec.rate_hz, cutoff, segments=rec.segments)
-        sse.append(np.sum((rec.effort - arm.inverse_dynamics(rec.q, rec.qd, qdd)) ** 2, axis=0))
+        residual = rec.effort - arm.inverse_dynamics(rec.q, rec.qd, qdd)
+        left = np.empty(N)
+        for joint in range(N):
+            basis = spring if joint == S1 else offset
+            coef, *_ = np.linalg.lstsq(basis, residual[:, joint], rcond=None)
+            left[joint] = np.sum((residual[:, joint] - basis @ coef) ** 2)
+        sse.append(left)
     return np.array(sse).reshape(-1, N)
 
 
@@ -386,8 +403,8 @@ def choose_cutoff(scores: Sequence[np.ndarray], lowest_rate_hz: float) -> tuple[
 
     Per joint, because what q̈'s noise costs differs by joint: every joint's noise enters joint j's
     torque through row j of M(q), heaviest at the shoulder, while the motion's own acceleration,
-    which a low cut-off smooths away, is fastest at the wrist (on the real recordings s1's best is
-    1.5 or 6 Hz, w0's 8 or 12 Hz; one cut-off for all had to trade one joint against another).
+    which a low cut-off smooths away, is fastest at the wrist (on the real recordings the shoulder's
+    choices are 4 or 6 Hz, w0's 8 or 12 Hz; one cut-off for all had to trade one joint against another).
     """
     sse = np.zeros((min(len(cutoff_grid(lowest_rate_hz)), *(len(s) for s in scores)), N))
     for s in scores:
