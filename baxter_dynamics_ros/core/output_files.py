@@ -18,8 +18,8 @@ from __future__ import annotations
 
 import errno
 import os
+import secrets
 import shutil
-import tempfile
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -47,15 +47,37 @@ def _first_missing(folder: Path) -> Path | None:
     return top
 
 
-def _staging_folder(folder: Path) -> Path:
+def _staging_folder(folder: Path, made: list[Path]) -> Path:
     """A new temporary folder beside ``folder``'s contents (inside it, or beside the outermost
-    missing folder of its path when that is to be made)."""
+    missing folder of its path when that is to be made), listed in ``made`` before it is created, so
+    that an interrupt (Ctrl-C) at any point leaves the caller a list to remove (:func:`_remove`)."""
     top = _first_missing(folder)
     where = folder if top is None else top.parent
-    try:
-        return Path(tempfile.mkdtemp(prefix=f".{folder.name}.", suffix=".partial", dir=where))
-    except OSError as err:
-        raise OutputError(f"{folder}: cannot write here ({err.strerror or err})") from err
+    while True:
+        path = where / f".{folder.name}.{secrets.token_hex(6)}.partial"
+        made.append(path)
+        try:
+            path.mkdir(mode=0o700)
+            return path
+        except FileExistsError:
+            made.remove(path)  # another's: never ours to remove
+        except OSError as err:
+            raise OutputError(f"{folder}: cannot write here ({err.strerror or err})") from err
+
+
+def _remove(folders: list[Path]) -> None:
+    """Remove the staging folders (those that exist), all of them even if Ctrl-C comes meanwhile;
+    that interrupt is raised once they are gone."""
+    interrupted: KeyboardInterrupt | None = None
+    for folder in folders:
+        while True:
+            try:
+                shutil.rmtree(folder, ignore_errors=True)
+                break
+            except KeyboardInterrupt as err:
+                interrupted = err
+    if interrupted is not None:
+        raise interrupted
 
 
 def check_outputs(targets: Sequence[str | os.PathLike[str]], *, replace: bool = False, option: str = "--out") -> None:
@@ -80,7 +102,11 @@ def check_outputs(targets: Sequence[str | os.PathLike[str]], *, replace: bool = 
             if len(paths) == 1:
                 raise OutputError(f"{paths[0]}: exists already; choose another {option} or pass --force")
             raise OutputError(f"{folder}: holds earlier outputs ({', '.join(existing)}); choose another {option} or pass --force")
-        shutil.rmtree(_staging_folder(folder))  # may we write there?
+        made: list[Path] = []
+        try:
+            _staging_folder(folder, made)  # may we write there?
+        finally:
+            _remove(made)
 
 
 @contextmanager
@@ -96,11 +122,12 @@ def staged_outputs(targets: Sequence[str | os.PathLike[str]], *, replace: bool =
     """
     paths = [Path(t) for t in targets]
     stagings: dict[Path, Path] = {}  # folder -> its staging folder
+    made: list[Path] = []  # every staging folder, listed before it is created
     tops: dict[Path, Path | None] = {}  # folder -> the outermost of it and its parents missing when staged
     try:
         where: dict[Path, Path] = {}  # target -> staged path
         for folder, files in _by_folder(paths).items():
-            stagings[folder] = staging = _staging_folder(folder)
+            stagings[folder] = staging = _staging_folder(folder, made)
             tops[folder] = top = _first_missing(folder)
             inner = staging if top is None else staging / folder.relative_to(top.parent)
             inner.mkdir(parents=True, exist_ok=True)
@@ -113,8 +140,7 @@ def staged_outputs(targets: Sequence[str | os.PathLike[str]], *, replace: bool =
             shown = staged_as.get(str(err.filename), paths[0].parent if len(paths) > 1 else paths[0])
             raise OutputError(f"{shown}: cannot write the outputs ({err.strerror or err}); nothing was written") from err
     finally:
-        for staging in stagings.values():
-            shutil.rmtree(staging, ignore_errors=True)
+        _remove(made)
 
 
 def _commit(stagings: dict[Path, Path], where: dict[Path, Path], exclusive: dict[Path, Path | None] | None, option: str) -> None:

@@ -85,3 +85,29 @@ def test_outputs_in_several_folders_are_taken_back_together(tmp_path: Path) -> N
         staged[0].write_text("png")
         staged[1].write_text("new page")  # table.md is never written: its move fails, after the others
     assert listing(tmp_path) == ["docs", "docs/page.md"] and (tmp_path / "docs" / "page.md").read_text() == "old page"
+
+
+@pytest.mark.parametrize("when", ["check", "stage"])
+def test_ctrl_c_just_after_a_staging_folder_is_made_leaves_nothing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, when: str) -> None:
+    """Ctrl-C arriving the instant a staging folder exists, before anything has noted it (in the
+    check of a new output folder, or in staging one): the folder is still removed, nothing is left.
+    The interrupt is planted in the folder's creation: the real mkdir runs, then KeyboardInterrupt."""
+    real_mkdir = Path.mkdir
+
+    def mkdir_then_interrupt(self: Path, *args, **kwargs) -> None:
+        real_mkdir(self, *args, **kwargs)
+        if self.name.endswith(".partial"):
+            raise KeyboardInterrupt
+
+    target = tmp_path / "new" / "out.csv"
+    if when == "stage":
+        check_outputs([target])
+    monkeypatch.setattr(Path, "mkdir", mkdir_then_interrupt)
+    with pytest.raises(KeyboardInterrupt):
+        if when == "check":
+            check_outputs([target])
+        else:
+            with staged_outputs([target]) as (staged,):
+                staged.write_text("x")
+    monkeypatch.undo()
+    assert listing(tmp_path) == []
