@@ -223,8 +223,13 @@ class Prepared:
 
     def joints_by_cutoff(self) -> list[tuple[float, np.ndarray]]:
         """(cut-off, the joints at it) per distinct cut-off, ascending."""
-        c = np.asarray(self.cutoffs_hz)
-        return [(v, np.flatnonzero(c == v)) for v in sorted(set(self.cutoffs_hz))]
+        return _joints_by_cutoff(self.cutoffs_hz)
+
+
+def _joints_by_cutoff(cutoffs_hz: Sequence[float]) -> list[tuple[float, np.ndarray]]:
+    """(cut-off, the joints at it) per distinct cut-off of cutoffs_hz (7,), ascending."""
+    c = np.asarray(cutoffs_hz, dtype=float)
+    return [(float(v), np.flatnonzero(c == v)) for v in sorted(set(c.tolist()))]
 
 
 def prepare(arm: ArmModel, rec: Recording, cutoffs_hz: Sequence[float]) -> Prepared:
@@ -233,10 +238,9 @@ def prepare(arm: ArmModel, rec: Recording, cutoffs_hz: Sequence[float]) -> Prepa
     cutoffs = tuple(float(c) for c in cutoffs_hz)
     qd_lowpassed, qdd = {}, {}
     tau = np.empty_like(rec.q)
-    for c in sorted(set(cutoffs)):
+    for c, joints in _joints_by_cutoff(cutoffs):
         qd_lowpassed[c] = zero_phase_lowpass(rec.qd, rec.rate_hz, c, segments=rec.segments)
         qdd[c] = zero_phase_acceleration(qd_lowpassed[c], rec.rate_hz, None, segments=rec.segments)
-        joints = [j for j in range(N) if cutoffs[j] == c]
         tau[:, joints] = arm.inverse_dynamics(rec.q, rec.qd, qdd[c])[:, joints]
     residual = rec.effort - tau
     delay_columns = np.gradient(tau, stamps, axis=0)
@@ -379,9 +383,8 @@ def cutoff_scores(arm: ArmModel, rec: Recording) -> np.ndarray:
     floor (with a floor of 0.75 Hz one real rotation took 1 Hz at s1 and its held-out s1 went
     0.79 → 3.25 N·m); with it the choice does not move when the grid is widened to 0.75–24 Hz.
     """
-    qs1 = rec.q[:, S1]
     offset = np.ones((len(rec), 1))
-    spring = np.column_stack([offset[:, 0], qs1, np.cos(qs1), np.sin(qs1)])
+    spring = S1Spring().regressor(arm, rec.q, rec.qd, rec.qd)[:, S1, :]  # the candidate's own columns
     sse = []
     for cutoff in cutoff_grid(rec.rate_hz):
         qdd = zero_phase_acceleration(rec.qd, rec.rate_hz, cutoff, segments=rec.segments)
