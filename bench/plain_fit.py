@@ -399,6 +399,20 @@ class PlainResult:
     model: Model = field(default_factory=Model)
     fit: Fit | None = None
 
+    def joint_values(self, label: str) -> tuple[float, ...]:
+        """The fitted parameters of a selected per-joint effect ``"name@joint"`` (one of
+        :attr:`selected`), in its blocks' order (:data:`JOINT_EFFECTS`; Stribeck: Coulomb friction F_c,
+        then the bump F_s − F_c at rest): N·m, N·m·s/rad, kg·m², s or dimensionless; ``torque_offset@joint``:
+        the offset applied to the test recording (the training recordings' mean), N·m."""
+        if label not in self.selected or "@" not in label or self.fit is None:
+            raise ValueError(f"{label!r} is no per-joint effect of this fit (selected: {', '.join(self.selected)})")
+        name, _, suffix = label.partition("@")
+        j = JOINT_SUFFIXES.index(suffix)
+        if name == "torque_offset":
+            return (float(self.fit.test_offset()[j]),)
+        theta = dict(zip(self.model.columns, self.fit.theta))
+        return tuple(float(theta[int(COLUMNS[block][j])]) for block in JOINT_EFFECTS[name])
+
 
 def plain_diagnosis(train: Sequence[RecordingStats], test: Sequence[RecordingStats], *, exclude: frozenset[str] = frozenset()) -> PlainResult:
     """Select on ``train`` by LORO (never the moves in ``exclude``), fit the selection on all of

@@ -71,6 +71,8 @@ class Rotation:
     plain_without: dict[str, float] = field(default_factory=dict)
     #: (7,) Hz, diagnose's q̇ low-pass per joint (its ``q_ddot_cutoff_hz``)
     diagnose_cutoff_hz: tuple[float, ...] = ()
+    #: the plain fit's per-joint selections "name@joint" → their fitted values (:meth:`PlainResult.joint_values`)
+    plain_values: dict[str, tuple[float, ...]] = field(default_factory=dict)
 
 
 def datasets(root: Path = DATA) -> list[Path]:
@@ -125,6 +127,7 @@ def compare_dataset(
                 {e["name"]: tuple(j.split("_", 1)[-1] for j in e["joints"]) for e in report["effects"] if e["selected"]},
                 {e["name"]: {j.split("_", 1)[-1]: why for j, why in e["not_at"].items()} for e in report["effects"]},
                 diagnose_cutoff_hz=tuple(float(c) for c in report["q_ddot_cutoff_hz"].values()),
+                plain_values={label: plain.joint_values(label) for label in plain.selected if "@" in label},
             )
             without = {}
             for _, _, joint, against in misses([rotation]):
@@ -164,9 +167,37 @@ def _plain_at(rotation: Rotation, joint: str) -> list[tuple[str, str]]:
     return out
 
 
+#: Units of the plain fit's per-joint effects' values (:meth:`PlainResult.joint_values`).
+UNITS = {"torque_offset": "N·m", "viscous_friction": "N·m·s/rad", "coulomb_friction": "N·m", "stribeck_friction": "N·m",
+         "armature": "kg·m²", "delay": "s", "torque_gain": ""}
+
+
+#: Effects that are ≥ 0 in physics (a rotor's inertia; friction that opposes motion, at rest and
+#: sliding alike): a negative one is flagged in the misses table, as `diagnose`'s bounds refuse it.
+NON_NEGATIVE = frozenset({"viscous_friction", "coulomb_friction", "stribeck_friction", "armature"})
+
+
+def _levels(name: str, values: tuple[float, ...]) -> tuple[float, ...]:
+    """The values that must be ≥ 0 for a NON_NEGATIVE effect: Stribeck's (F_c, F_c + bump) = (sliding,
+    breakaway) friction; the values themselves otherwise."""
+    return (values[0], values[0] + values[1]) if name == "stribeck_friction" else values
+
+
+def _valued(rotation: Rotation, chosen: str) -> str:
+    """ "name@joint (its fitted values and unit[, negative: not physical])", or the label alone when
+    the rotation has no values."""
+    values = rotation.plain_values.get(chosen)
+    if values is None:
+        return chosen
+    name = chosen.split("(")[0].split("@")[0]
+    flag = ", negative: not physical" if name in NON_NEGATIVE and min(_levels(name, values)) < 0 else ""
+    return f"{chosen} ({', '.join(f'{v:.3g}' for v in values)}{' ' + UNITS[name] if UNITS[name] else ''}{flag})"
+
+
 def diagnose_says(rotation: Rotation, joint: str) -> str:
-    """:func:`_plain_at` in words: "name@joint: applied by diagnose too" or ": why not"; "—" if none."""
-    return "; ".join(f"{chosen}: {why or 'applied by diagnose too'}" for chosen, why in _plain_at(rotation, joint)) or "—"
+    """:func:`_plain_at` in words: "name@joint (the plain fit's values): applied by diagnose too" or
+    ": why not"; "—" if none."""
+    return "; ".join(f"{_valued(rotation, chosen)}: {why or 'applied by diagnose too'}" for chosen, why in _plain_at(rotation, joint)) or "—"
 
 
 def withheld(rotation: Rotation, joint: str) -> frozenset[str]:
@@ -229,7 +260,10 @@ def page(rotations: Sequence[Rotation], elapsed_s: float, command: str, plain_cu
     lines += ["## Cases that miss the goal", ""]
     if found:
         by_test = {(r.dataset, r.test): r for r in rotations}
-        lines += ["The last columns: each per-joint effect the plain fit applied at that joint, and why `diagnose` does not "
+        lines += ["The last columns: each per-joint effect the plain fit applied at that joint, with its fitted values there "
+                  "(Stribeck: Coulomb friction F_c, then the bump F_s − F_c at rest; an offset: the one applied to the test recording; "
+                  "\"not physical\" where an armature, a viscous or Coulomb coefficient or the friction at rest F_s is negative, which "
+                  "`diagnose`'s bounds refuse), and why `diagnose` does not "
                   "apply it there (its report's `not_at`); and the plain fit's held-out RMS at the joint when it is run again "
                   "without those it applied there and `diagnose` does not (— where there are none).", "",
                   "| dataset | test | joint | against | measured | the plain fit's effects at the joint in `diagnose` | plain without them [N·m] |",

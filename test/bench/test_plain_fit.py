@@ -88,6 +88,19 @@ def test_recovers_the_planted_values(planted) -> None:
     assert result.rigid_test_rms[3] > 1.0  # what the planted Coulomb term leaves without the fit
 
 
+def test_joint_values_are_the_planted_ones(planted) -> None:
+    """Per selected "name@joint": the fitted values at that joint; an offset's, the one the test
+    recording gets (the training recordings' mean); an effect not selected is refused."""
+    _, result = planted
+    assert result.joint_values("coulomb_friction@e1") == pytest.approx((COULOMB_E1_NM,), abs=0.03)
+    assert result.joint_values("torque_offset@w1") == pytest.approx((np.mean(OFFSETS_W1_NM[:3]),), abs=0.01)
+    # exactly the mean of the three recordings' own offsets (each checked above against its planted one)
+    assert result.joint_values("torque_offset@w1") == pytest.approx((np.mean([result.fit.offsets[f"rec{k}"][5] for k in range(3)]),), rel=1e-12)
+    for label in ("coulomb_friction@w1", "s1_spring", "armature@e1"):
+        with pytest.raises(ValueError, match="no per-joint effect of this fit"):
+            result.joint_values(label)
+
+
 def test_never_takes_an_excluded_move(planted) -> None:
     """Barred from Coulomb friction at e1, the fit takes a Stribeck variant there (it holds the same
     sign(q̇) column); barred from every friction move at e1, nothing stands in for it (held-out e1

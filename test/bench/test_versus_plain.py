@@ -11,6 +11,8 @@ the test fails when one of them changes; regenerate the list with
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from repo_paths import SHARED
@@ -97,6 +99,18 @@ def test_the_misses_table_says_what_diagnose_did_with_the_plain_fits_effects() -
         "armature@s1: its fitted parameters there are at their bounds; stribeck_friction(v_s=0.02)@s1: applied by diagnose too; "
         "delay@s1: not selected by diagnose (see its reason)"
     )
+    # with the plain fit's values: each label carries them, with the effect's unit (none for a gain)
+    valued = replace(rotation, plain_values={"armature@s1": (-0.4734,), "stribeck_friction(v_s=0.02)@s1": (0.82, 0.1), "delay@s1": (-0.0075,),
+                                             "torque_gain@s0": (-0.19,)})  # fmt: skip
+    assert diagnose_says(valued, "s1") == (
+        "armature@s1 (-0.473 kg·m², negative: not physical): its fitted parameters there are at their bounds; "
+        "stribeck_friction(v_s=0.02)@s1 (0.82, 0.1 N·m): applied by diagnose too; delay@s1 (-0.0075 s): not selected by diagnose (see its reason)"
+    )
+    # Stribeck (F_c, F_s − F_c): flagged where the friction at rest F_s is negative, not for F_s below F_c;
+    # a negative delay or gain is not flagged (both signs are physical)
+    says = [diagnose_says(replace(valued, plain_values={"stribeck_friction(v_s=0.02)@s1": bump}), "s1") for bump in ((0.82, -0.9), (0.82, -0.7))]
+    assert "(0.82, -0.9 N·m, negative: not physical)" in says[0] and "(0.82, -0.7 N·m)" in says[1], says
+    assert diagnose_says(replace(valued, plain_selected=("torque_gain@s0",)), "s0") == "torque_gain@s0 (-0.19): not selected by diagnose (see its reason)"
     assert diagnose_says(rotation, "e1") == "—"
     # what the plain fit is run again without, for its figure at s1 without them: all but the applied one
     assert withheld(rotation, "s1") == {"armature@s1", "delay@s1"}
