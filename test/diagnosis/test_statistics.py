@@ -12,7 +12,7 @@ from synthetic_recordings import EFFORT_QUANTUM_NM, block_edges, lowpassed_veloc
 
 from baxter_dynamics_ros.core.arm_model import link_parameters
 from baxter_dynamics_ros.core.recording import Recording
-from baxter_dynamics_ros.diagnosis.statistics import CHUNK, Pool, active_columns, column_layout, prepare, recording_blocks
+from baxter_dynamics_ros.diagnosis.statistics import CHUNK, CUTOFF_GRID_HZ, Pool, active_columns, choose_cutoff, column_layout, cutoff_grid, prepare, recording_blocks
 from baxter_dynamics_ros.diagnosis.validation import validation_arm
 
 N = 7
@@ -70,6 +70,45 @@ def test_block_statistics_are_sums_over_contiguous_blocks(seconds: float, parts:
             assert block.H[j, g, g] == pytest.approx(float(tau[lo:hi, j] @ tau[lo:hi, j]), rel=1e-6)
     pool = Pool.of(blocks)
     assert pool.samples == n
+
+
+def test_the_delay_column_follows_uneven_stamps() -> None:
+    """Stamps jittered by up to ±20 % of the period (a bag's receive times): the delay's column is
+    −dτ_rigid/dt against the stamps themselves (numpy's gradient on uneven spacing of Pinocchio's
+    τ), not against the nominal period, which the jitter makes differ by more than 5 % here."""
+    arm = validation_arm()
+    even = recording(arm, 63, 12.0)
+    rng = np.random.default_rng(7)
+    period_ns = 1e9 / 100.0
+    stamps_ns = even.stamps_ns + np.round(rng.uniform(-0.2, 0.2, len(even)) * period_ns).astype(np.int64)
+    rec = Recording(even.side, even.joint_names, stamps_ns, even.q, even.qd, even.effort)
+    p = prepare(arm, rec, PER_JOINT_HZ)
+    tau = rec.effort - reference_residuals(arm, rec, PER_JOINT_HZ)[1]
+    np.testing.assert_allclose(p.rigid_torque, tau, atol=1e-6)
+    by_stamps = -np.gradient(tau, rec.stamps_s, axis=0)
+    by_period = -np.gradient(tau, 1.0 / rec.rate_hz, axis=0)
+    assert np.linalg.norm(by_stamps - by_period) > 0.05 * np.linalg.norm(by_stamps)
+    np.testing.assert_allclose(p.delay_columns, by_stamps, rtol=1e-9, atol=1e-9 * np.abs(by_stamps).max())
+
+
+def test_the_cutoff_is_chosen_on_every_training_recordings_scores_together() -> None:
+    """choose_cutoff on hand-made scores ((k, 7) per recording, one row per cut-off of the grid): per
+    joint the cut-off whose summed score is least — here neither recording's own best at joint 0 —
+    the lower one on a tie (joint 1), and only among the cut-offs the slowest recording (test files
+    too) can be filtered at: at 20 Hz the grid stops below 9 Hz (joint 2's summed best, 12 Hz, is
+    out; recordings scored on fewer cut-offs bound it the same way)."""
+    k = len(CUTOFF_GRID_HZ)
+    a, b = np.full((k, N), 10.0), np.full((k, N), 10.0)
+    a[2, 0], a[4, 0] = 1.0, 6.0  # recording a alone: 3 Hz at joint 0
+    b[2, 0], b[4, 0], b[6, 0] = 9.0, 3.0, 2.0  # recording b alone: 12 Hz; together 6 Hz (9) beats 3 Hz (10), 12 Hz (12)
+    a[1, 1] = a[3, 1] = 0.0  # a tie at joint 1 between 2 and 4 Hz
+    b[6, 2] = 0.0  # joint 2's best, 12 Hz, needs a rate above 26.7 Hz
+    b[5, 2] = 1.0
+    chosen = choose_cutoff([a, b], 1000.0)
+    assert chosen[:2] == (CUTOFF_GRID_HZ[4], CUTOFF_GRID_HZ[1]) and chosen[2] == CUTOFF_GRID_HZ[6]
+    slow = choose_cutoff([a, b], 20.0)
+    assert cutoff_grid(20.0) == CUTOFF_GRID_HZ[:6] and slow[2] == CUTOFF_GRID_HZ[5]
+    assert choose_cutoff([a, b[:6]], 1000.0)[2] == CUTOFF_GRID_HZ[5]
 
 
 def test_pool_sums_and_folds() -> None:
