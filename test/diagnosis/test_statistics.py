@@ -12,7 +12,9 @@ from synthetic_recordings import EFFORT_QUANTUM_NM, block_edges, lowpassed_veloc
 
 from baxter_dynamics_ros.core.arm_model import link_parameters
 from baxter_dynamics_ros.core.recording import Recording
-from baxter_dynamics_ros.diagnosis.statistics import CHUNK, CUTOFF_GRID_HZ, Pool, active_columns, choose_cutoff, column_layout, cutoff_grid, prepare, recording_blocks
+from baxter_dynamics_ros.diagnosis.statistics import (
+    CHUNK, CUTOFF_GRID_HZ, Pool, active_columns, choose_cutoff, column_layout, cutoff_grid, explained, prepare, recording_blocks,
+)  # fmt: skip
 from baxter_dynamics_ros.diagnosis.validation import validation_arm
 
 N = 7
@@ -109,6 +111,28 @@ def test_the_cutoff_is_chosen_on_every_training_recordings_scores_together() -> 
     slow = choose_cutoff([a, b], 20.0)
     assert cutoff_grid(20.0) == CUTOFF_GRID_HZ[:6] and slow[2] == CUTOFF_GRID_HZ[5]
     assert choose_cutoff([a, b[:6]], 1000.0)[2] == CUTOFF_GRID_HZ[5]
+
+
+def test_explained_adds_each_columns_effect() -> None:
+    """explained on a chunk, for one column of each kind of block, each joint at its own cut-off:
+    an offset, viscous friction on the low-passed q̇ (scipy), a delay's −dτ/dt and a torque gain's τ
+    (Pinocchio's τ with that q̈), summed with their values, in any order of the columns."""
+    arm = validation_arm()
+    rec = recording(arm, 64, 6.0)
+    layout = column_layout()
+    p = prepare(arm, rec, PER_JOINT_HZ)
+    tau = rec.effort - reference_residuals(arm, rec, PER_JOINT_HZ)[1]
+    qd = lowpassed_velocity(rec, PER_JOINT_HZ)
+    column = {c.name: c.columns for c in layout.candidates if c.variant is None}
+    picks = [("torque_gain", 3, -0.2, tau[:, 3]), ("torque_offset", 6, 0.05, np.ones(len(rec))), ("delay", 0, 0.01, -np.gradient(tau[:, 0], rec.stamps_s)),
+             ("viscous_friction", 4, 2.5, qd[:, 4])]  # fmt: skip
+    columns = np.array([column[name][j] for name, j, _, _ in picks])
+    x = np.array([v for _, _, v, _ in picks])
+    lo, hi = 100, 400
+    want = np.zeros((hi - lo, N))
+    for _, j, v, series in picks:
+        want[:, j] += v * series[lo:hi]
+    np.testing.assert_allclose(explained(arm, layout, p, columns, x, lo, hi), want, atol=1e-6)
 
 
 def test_pool_sums_and_folds() -> None:
