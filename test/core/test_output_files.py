@@ -111,3 +111,16 @@ def test_ctrl_c_just_after_a_staging_folder_is_made_leaves_nothing(tmp_path: Pat
                 staged.write_text("x")
     monkeypatch.undo()
     assert listing(tmp_path) == []
+
+
+def test_without_replacing_a_file_that_appears_meanwhile_stops_all_and_is_left_alone(tmp_path: Path) -> None:
+    """replace=False (no --force) into an existing folder: another run writes b.txt while this one
+    stages; at the end this one refuses, a.txt (already linked into place) is taken back, and the
+    other run's b.txt is left as it wrote it."""
+    targets = [tmp_path / "a.txt", tmp_path / "b.txt"]
+    with pytest.raises(OutputError, match=f"{tmp_path / 'b.txt'}: appeared while this command ran"):
+        with staged_outputs(targets, replace=False) as staged:
+            for path, text in zip(staged, ("mine a", "mine b")):
+                path.write_text(text)
+            targets[1].write_text("theirs")
+    assert listing(tmp_path) == ["b.txt"] and targets[1].read_text() == "theirs"
