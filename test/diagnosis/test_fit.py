@@ -131,3 +131,65 @@ def test_payload_outside_its_box_stops_at_the_box(arm) -> None:
     assert mass <= 5.0 * (1 + 1e-6)
     assert np.all(np.abs(com[:2]) <= 0.1 + 1e-6)
     assert -0.05 - 1e-6 <= com[2] <= 0.3 + 1e-6
+
+
+def _offset(rec: Recording, offsets: dict[int, float]) -> Recording:
+    """The recording with offsets {joint: N·m} added to its effort."""
+    effort = rec.effort.copy()
+    for j, value in offsets.items():
+        effort[:, j] += value
+    return Recording(rec.side, rec.joint_names, rec.stamps_ns, rec.q, rec.qd, effort)
+
+
+def test_offsets_are_each_recordings_own_within_a_sensors_drift(arm) -> None:
+    """Three recordings with viscous friction and offsets at e1 (0, 1.4, 0.7 N·m: 0.7 from their mean,
+    more than a sensor drifts) and at w1 (0.10, 0.30, 0.20: 0.1 from it). Against numpy's least squares
+    of each joint's denoised residual on [q̇_j low-passed by scipy, one indicator per recording]: at
+    w1 the viscous coefficient and each recording's own offset, the offset used beyond the training
+    data their mean, its variance λ/n plus the spread of the recordings' offsets over their count;
+    at e1 the recordings' offsets depart from their mean by more than MAX_OFFSET_DRIFT_NM, so one
+    offset is shared (least squares on [q̇_e1, 1]) and the departure is reported. The offsets count
+    as parameters: 7 viscous and 2 offsets."""
+    from baxter_dynamics_ros.diagnosis.fit import MAX_OFFSET_DRIFT_NM
+
+    layout = column_layout()
+    drift = {3: (0.0, 1.4, 0.7), 5: (0.10, 0.30, 0.20)}
+    named = [(f"R{k}", _offset(recording(arm, 91 + k, viscous=VISCOUS), {j: v[k] for j, v in drift.items()})) for k in range(3)]
+    pool = Pool.of(blocks_of(arm, named, CUTOFF_HZ))
+    lam = 3.0
+    fitter = Fitter(arm, layout, pool, np.ones(N), lam)
+    viscous, offset = _index(layout, "viscous_friction"), _index(layout, "torque_offset")
+    model = Model.of([Term(viscous, tuple(range(N))), Term(offset, (3, 5))])
+    fit = fitter.fit(model)
+    residual = [prepare(arm, rec, CUTOFF_HZ).residual for _, rec in named]
+    velocity = [lowpassed_velocity(rec, CUTOFF_HZ) for _, rec in named]
+    n = sum(len(r) for r in residual)
+
+    def per_recording(j: int) -> np.ndarray:
+        """[viscous, offset of each recording] by numpy."""
+        X = np.zeros((n, 4))
+        X[:, 0] = np.concatenate([v[:, j] for v in velocity])
+        start = 0
+        for k, r in enumerate(residual):
+            X[start : start + len(r), 1 + k] = 1.0
+            start += len(r)
+        return np.linalg.lstsq(X, np.concatenate([r[:, j] for r in residual]), rcond=None)[0]
+
+    free = per_recording(5)
+    cols = list(fitter.columns(model))
+    at = {c: k for k, c in enumerate(cols)}
+    v5, o5 = at[layout.candidates[viscous].columns[5]], at[layout.candidates[offset].columns[5]]
+    assert fit.x[v5] == pytest.approx(free[0], rel=1e-6)
+    np.testing.assert_allclose([fit.offsets[f"R{k}"][list(fit.offset_joints).index(5)] for k in range(3)], free[1:], atol=1e-6)
+    np.testing.assert_allclose(free[1:] - free[1:].mean(), np.array(drift[5]) - np.mean(drift[5]), atol=0.02)  # the planted spread
+    assert fit.x[o5] == pytest.approx(free[1:].mean(), abs=1e-6)
+    assert fit.cov_x[o5, o5] == pytest.approx(lam / n + free[1:].var(ddof=1) / 3, rel=1e-6)
+
+    departure = np.max(np.abs(per_recording(3)[1:] - per_recording(3)[1:].mean()))
+    assert departure > MAX_OFFSET_DRIFT_NM and set(fit.held_common) == {3}
+    assert fit.held_common[3] == pytest.approx(departure, rel=1e-6)
+    X = np.column_stack([np.concatenate([v[:, 3] for v in velocity]), np.ones(n)])
+    shared = np.linalg.lstsq(X, np.concatenate([r[:, 3] for r in residual]), rcond=None)[0]
+    o3, v3 = at[layout.candidates[offset].columns[3]], at[layout.candidates[viscous].columns[3]]
+    np.testing.assert_allclose(fit.x[[v3, o3]], shared, rtol=1e-6, atol=1e-6)
+    assert fit.df == pytest.approx(N + 2, abs=1e-4)
