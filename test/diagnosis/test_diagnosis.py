@@ -207,6 +207,39 @@ def test_drift_at_a_joint_other_than_s0_is_found() -> None:
     assert offset.drift["drifting"] == ["right_e1"]
 
 
+def test_offsets_farther_apart_than_a_sensor_drifts_are_reported_as_a_hidden_torque(tmp_path: Path) -> None:
+    """Per-recording "offsets" of 0.6, 1.8 and 1.2 N·m at e1 (1.2 in the test file) and 0.3 at w1
+    everywhere: e1's recordings would depart from their mean by 0.6 N·m, more than a sensor drifts
+    (MAX_OFFSET_DRIFT_NM), so e1 has one offset for all recordings (about 1.2, their mean) and the
+    warnings and the report call it a state-dependent torque, not drift; w1 keeps its own per
+    recording (0.3 each)."""
+    from baxter_dynamics_ros.diagnosis.fit import MAX_OFFSET_DRIFT_NM
+    from baxter_dynamics_ros.diagnosis.report import write_diagnosis
+    from synthetic_recordings import recording
+
+    arm = validation_arm()
+
+    def shifted(rec: Recording, e1: float) -> Recording:
+        effort = rec.effort.copy()
+        effort[:, 3] += e1
+        effort[:, 5] += 0.3
+        return Recording(rec.side, rec.joint_names, rec.stamps_ns, rec.q, rec.qd, effort)
+
+    train = [(f"R{k}", shifted(recording(arm, 91 + k), e1)) for k, e1 in enumerate((0.6, 1.8, 1.2))]
+    result = diagnose(arm, train, [("T", shifted(recording(arm, 95), 1.2))])
+    offset = next(e for e in result.selected() if e.name == "torque_offset")
+    assert set(offset.joints) == {"right_e1", "right_w1"}
+    held = offset.drift["held_common"]
+    assert list(held) == ["right_e1"] and held["right_e1"] == pytest.approx(0.6, abs=0.02) and held["right_e1"] > MAX_OFFSET_DRIFT_NM
+    assert offset.drift["joints"] == ["right_w1"]
+    np.testing.assert_allclose([v[0] for v in offset.drift["per_recording_nm"].values()], [0.3, 0.3, 0.3], atol=0.02)
+    assert offset.params["offset_nm[e1]"] == pytest.approx(1.2, abs=0.03)
+    said = [w for w in result.warnings() if w.startswith("Torque offsets:")]
+    assert len(said) == 1 and re.search(r"more than a sensor drifts \(0\.5 N·m\) at e1 \(0\.6\d* N·m\): a state-dependent torque .* not drift", said[0]), said
+    paths = write_diagnosis(result, tmp_path / "d")
+    assert re.search(r"<b>Not drift at e1 \(0\.6\d* N·m\)</b>", paths["report.html"].read_text())
+
+
 def test_effort_that_is_not_this_arms_torque_is_refused() -> None:
     """A recording whose effort is noise, or with a joint whose effort never changes, cannot be
     diagnosed: refused, naming the recording (and the joint)."""
