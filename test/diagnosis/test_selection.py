@@ -15,7 +15,7 @@ import pytest
 from scipy.stats import chi2
 from synthetic_recordings import block_edges, blocks_of, friction_diagnosis, lowpassed_velocity, motion, recording, rigid_torque
 
-from baxter_dynamics_ros.diagnosis.fit import DECORRELATION_S, Fit, Model
+from baxter_dynamics_ros.diagnosis.fit import DECORRELATION_S, Fit, Model, Term
 from baxter_dynamics_ros.diagnosis.procedure import diagnose
 from baxter_dynamics_ros.diagnosis.result import DiagnosisResult
 from baxter_dynamics_ros.diagnosis.selection import Evaluation, _Search, gain_lacks, rivalries, select
@@ -109,6 +109,35 @@ def test_wald_test_against_chi_square(arm) -> None:
     assert np.sqrt(x[1] ** 2 / total[1, 1]) < np.sqrt(chi2.ppf(0.95, 2))
     assert not search.significant(_evaluation(x, cov, folds, free=np.array([False, True])), positions)
     assert not search.significant(_evaluation(np.array([3.0, 0.0]), cov, folds, free=np.array([False, False])), positions)
+
+
+# ----------------------------------------------------------------------------- nested alternatives
+def test_the_richer_of_two_alternatives_must_win_by_the_folds_uncertainty(arm) -> None:
+    """Between payload (10 parameters) and inertial_error (70): a swap to the richer is taken only
+    when its score is lower by the margin — twice the standard error of the folds' weighted
+    held-out differences, written out here (≥ MOVE_TOLERANCE 1) — and a swap back to the simpler
+    unless the richer is better by that much; a move that is no swap needs the tolerance alone."""
+    named = [(f"A{k}", recording(arm, 71 + k)) for k in range(3)]
+    layout = column_layout()
+    search = _Search(arm, layout, Pool.of(blocks_of(arm, named, CUTOFF_HZ)))
+    payload, inertial = (Model.of([Term(_index(layout, name), search._touched(_index(layout, name)))]) for name in ("payload", "inertial_error"))
+    assert (search.nominal_size(payload), search.nominal_size(inertial)) == (10, 70)
+    rng = np.random.default_rng(5)
+    per_fold = {payload: rng.uniform(50, 150, (3, N)), inertial: rng.uniform(50, 150, (3, N))}
+    d = (per_fold[inertial] - per_fold[payload]) @ search.fitter.weights / search.lam
+    margin = max(1.0, 2.0 * float(np.sqrt(3 * np.var(d, ddof=1))))
+    assert margin > 4.0  # these folds disagree: more than the tolerance is asked
+
+    def ev(model: Model, score: float) -> Evaluation:
+        fit = Fit(model, np.zeros(0), np.zeros((0, 0)), np.zeros(0, bool), 0.0)
+        return Evaluation(model, fit, [], per_fold[model].sum(axis=0), score, per_fold[model])
+
+    for lower, swap_in, swap_back in [(0.5 * margin, False, True), (1.5 * margin, True, False)]:
+        # the richer scores `lower` below the simpler
+        assert search.preferred(ev(payload, 100.0), ev(inertial, 100.0 - lower), swap=True) is swap_in
+        assert search.preferred(ev(inertial, 100.0 - lower), ev(payload, 100.0), swap=True) is swap_back
+    assert search.preferred(ev(payload, 100.0), ev(inertial, 98.0))  # an add, not a swap: 2 > 1 suffices
+    assert not search.preferred(ev(payload, 100.0), ev(inertial, 99.5))
 
 
 # ----------------------------------------------------------------------------- stability and attribution
