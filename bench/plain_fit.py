@@ -339,6 +339,39 @@ def _moves(model: Model) -> list[tuple[str, Model]]:
     return out
 
 
+#: Per-joint effects that are ≥ 0 in physics (a rotor's inertia; friction that opposes motion, at
+#: rest and sliding alike); :func:`physical_levels` gives the values that must be.
+NON_NEGATIVE = frozenset({"viscous_friction", "coulomb_friction", "stribeck_friction", "armature"})
+
+
+def effect_values(model: Model, result: Fit, label: str) -> tuple[float, ...]:
+    """The fitted parameters of a per-joint effect ``"name@joint"`` of ``model``, in its blocks' order
+    (:data:`JOINT_EFFECTS`; Stribeck: Coulomb friction F_c, then the bump F_s − F_c at rest): N·m,
+    N·m·s/rad, kg·m², s or dimensionless; ``torque_offset@joint``: the offset applied to a recording
+    not trained on (the training recordings' mean), N·m."""
+    name, _, suffix = label.partition("@")
+    j = JOINT_SUFFIXES.index(suffix)
+    if name == "torque_offset":
+        return (float(result.test_offset()[j]),)
+    theta = dict(zip(model.columns, result.theta))
+    return tuple(float(theta[int(COLUMNS[block][j])]) for block in JOINT_EFFECTS[name])
+
+
+def physical_levels(label: str, values: tuple[float, ...]) -> tuple[float, ...]:
+    """What must be ≥ 0 of a per-joint effect's values for it to be physical: a NON_NEGATIVE
+    effect's values (Stribeck's as sliding and breakaway friction, F_c and F_c + bump); () for the
+    others (an offset, a delay or a gain may take either sign)."""
+    name = label.split("(")[0].split("@")[0]
+    if name not in NON_NEGATIVE:
+        return ()
+    return (values[0], values[0] + values[1]) if name == "stribeck_friction" else values
+
+
+def is_physical(model: Model, result: Fit) -> bool:
+    """Whether every per-joint effect of ``model`` has physical values in ``result``."""
+    return all(min(physical_levels(e, effect_values(model, result, e)), default=0.0) >= 0.0 for e in model.effects if "@" in e)
+
+
 @dataclass(frozen=True)
 class Step:
     """One accepted move: what was added and the LORO MSE per joint after it, N·m²."""
@@ -349,9 +382,12 @@ class Step:
 
 def select(
     train: Sequence[RecordingStats], *, min_gain: float = MIN_GAIN, max_steps: int = 80, exclude: frozenset[str] = frozenset(),
+    physical: bool = False,
 ) -> tuple[Model, np.ndarray, list[Step]]:
     """Greedy forward selection (module docstring), never taking a move labelled in ``exclude`` (e.g.
-    ``"armature@s1"``); returns the model, its joint weights (7,), the steps."""
+    ``"armature@s1"``), nor with ``physical`` one after which a per-joint effect's values fitted on
+    all of ``train`` (at that step's weights) are not physical (:func:`is_physical`); returns the
+    model, its joint weights (7,), the steps."""
     if len(train) < 2:
         raise ValueError("leave-one-recording-out needs at least 2 training recordings")
     model = Model()
@@ -362,7 +398,7 @@ def select(
     for _ in range(max_steps):
         tried = []
         for label, candidate in _moves(model):
-            if label in exclude:
+            if label in exclude or (physical and not is_physical(candidate, fit(train, candidate, weights))):
                 continue
             m = loro_mse(train, candidate, weights)
             tried.append((float(np.sum(np.log(mse) - np.log(m))), label, candidate, m))
@@ -400,29 +436,24 @@ class PlainResult:
     fit: Fit | None = None
 
     def joint_values(self, label: str) -> tuple[float, ...]:
-        """The fitted parameters of a selected per-joint effect ``"name@joint"`` (one of
-        :attr:`selected`), in its blocks' order (:data:`JOINT_EFFECTS`; Stribeck: Coulomb friction F_c,
-        then the bump F_s − F_c at rest): N·m, N·m·s/rad, kg·m², s or dimensionless; ``torque_offset@joint``:
-        the offset applied to the test recording (the training recordings' mean), N·m."""
+        """:func:`effect_values` of a selected per-joint effect ``"name@joint"`` (one of :attr:`selected`)."""
         if label not in self.selected or "@" not in label or self.fit is None:
             raise ValueError(f"{label!r} is no per-joint effect of this fit (selected: {', '.join(self.selected)})")
-        name, _, suffix = label.partition("@")
-        j = JOINT_SUFFIXES.index(suffix)
-        if name == "torque_offset":
-            return (float(self.fit.test_offset()[j]),)
-        theta = dict(zip(self.model.columns, self.fit.theta))
-        return tuple(float(theta[int(COLUMNS[block][j])]) for block in JOINT_EFFECTS[name])
+        return effect_values(self.model, self.fit, label)
 
 
-def plain_diagnosis(train: Sequence[RecordingStats], test: Sequence[RecordingStats], *, exclude: frozenset[str] = frozenset()) -> PlainResult:
-    """Select on ``train`` by LORO (never the moves in ``exclude``), fit the selection on all of
+def plain_diagnosis(
+    train: Sequence[RecordingStats], test: Sequence[RecordingStats], *, exclude: frozenset[str] = frozenset(), physical: bool = False,
+) -> PlainResult:
+    """Select on ``train`` by LORO (never the moves in ``exclude``; with ``physical`` none that
+    leaves a per-joint effect with values no physical effect has), fit the selection on all of
     ``train``, measure on ``test``.
 
     Runs with BLAS on one thread: thousands of ~100×100 solves, which threads only slow down (by
     twenty times on a busy machine).
     """
     with threadpool_limits(1):
-        model, weights, steps = select(train, exclude=exclude)
+        model, weights, steps = select(train, exclude=exclude, physical=physical)
         result = fit(train, model, weights)
     offset = result.test_offset()
     total = sum(sse(t, model, result, offset) for t in test)

@@ -39,7 +39,7 @@ from threadpoolctl import threadpool_limits
 
 from baxter_dynamics_ros.core.output_files import check_outputs, staged_outputs
 from baxter_dynamics_ros.errors import BaxterDynamicsError, DiagnosisError, OutputError
-from bench.plain_fit import CUTOFF_HZ, JOINT_SUFFIXES, RecordingStats, UrdfArm, plain_diagnosis, recording_stats
+from bench.plain_fit import CUTOFF_HZ, JOINT_SUFFIXES, RecordingStats, UrdfArm, physical_levels, plain_diagnosis, recording_stats
 from msg_adapters.recording_files import read_recording
 
 REPO = Path(__file__).resolve().parents[1]
@@ -73,6 +73,8 @@ class Rotation:
     diagnose_cutoff_hz: tuple[float, ...] = ()
     #: the plain fit's per-joint selections "name@joint" → their fitted values (:meth:`PlainResult.joint_values`)
     plain_values: dict[str, tuple[float, ...]] = field(default_factory=dict)
+    #: (7,) N·m, the plain fit never taking a move that leaves values no physical effect has
+    plain_physical: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 def datasets(root: Path = DATA) -> list[Path]:
@@ -128,6 +130,7 @@ def compare_dataset(
                 {e["name"]: {j.split("_", 1)[-1]: why for j, why in e["not_at"].items()} for e in report["effects"]},
                 diagnose_cutoff_hz=tuple(float(c) for c in report["q_ddot_cutoff_hz"].values()),
                 plain_values={label: plain.joint_values(label) for label in plain.selected if "@" in label},
+                plain_physical=plain_diagnosis(train, [stats[k]], physical=True).test_rms,
             )
             without = {}
             for _, _, joint, against in misses([rotation]):
@@ -172,17 +175,6 @@ UNITS = {"torque_offset": "N·m", "viscous_friction": "N·m·s/rad", "coulomb_fr
          "armature": "kg·m²", "delay": "s", "torque_gain": ""}
 
 
-#: Effects that are ≥ 0 in physics (a rotor's inertia; friction that opposes motion, at rest and
-#: sliding alike): a negative one is flagged in the misses table, as `diagnose`'s bounds refuse it.
-NON_NEGATIVE = frozenset({"viscous_friction", "coulomb_friction", "stribeck_friction", "armature"})
-
-
-def _levels(name: str, values: tuple[float, ...]) -> tuple[float, ...]:
-    """The values that must be ≥ 0 for a NON_NEGATIVE effect: Stribeck's (F_c, F_c + bump) = (sliding,
-    breakaway) friction; the values themselves otherwise."""
-    return (values[0], values[0] + values[1]) if name == "stribeck_friction" else values
-
-
 def _valued(rotation: Rotation, chosen: str) -> str:
     """ "name@joint (its fitted values and unit[, negative: not physical])", or the label alone when
     the rotation has no values."""
@@ -190,7 +182,7 @@ def _valued(rotation: Rotation, chosen: str) -> str:
     if values is None:
         return chosen
     name = chosen.split("(")[0].split("@")[0]
-    flag = ", negative: not physical" if name in NON_NEGATIVE and min(_levels(name, values)) < 0 else ""
+    flag = ", negative: not physical" if min(physical_levels(chosen, values), default=0.0) < 0 else ""
     return f"{chosen} ({', '.join(f'{v:.3g}' for v in values)}{' ' + UNITS[name] if UNITS[name] else ''}{flag})"
 
 
@@ -227,6 +219,9 @@ def page(rotations: Sequence[Rotation], elapsed_s: float, command: str, plain_cu
         "forward selection by leave-one-recording-out error, per joint for per-joint effects, 5 % to add (the larger of "
         "nested alternatives only if it pays 5 % more than the smaller); offsets on the test recording: the training "
         "recordings' mean, as `diagnose` writes out;",
+        "- **plain, physical values only**: the same, never taking a move after which a per-joint effect's values (fitted "
+        "on all training recordings) are ones no physical effect has — a negative armature, viscous or Coulomb coefficient, "
+        "or friction at rest (Stribeck's F_s), which `diagnose`'s bounds refuse; for comparison only, not the goal's yardstick;",
         "- **rigid (denoised)**: `diagnose`'s rigid-body model with its filtered q̈ (`denoised.test_rms`; q̇ low-passed "
         "at each joint's own cut-off, chosen on the training data, the table's last row);",
         "- **diagnose**: `baxter-dynamics diagnose --train … --test … --arm left --jobs 1` (`final.test_rms`).",
@@ -251,7 +246,8 @@ def page(rotations: Sequence[Rotation], elapsed_s: float, command: str, plain_cu
                   f"Worst ratio diagnose/plain: **{ratios[k, j]:.2f}** (test `{rots[k].test}`, {JOINT_SUFFIXES[j]}).", ""]
         for r in rots:
             lines += [f"### Test on `{r.test}`", "", header, rule,
-                      _row("plain", r.plain), _row("rigid (denoised)", r.rigid), _row("diagnose", r.diagnose),
+                      _row("plain", r.plain), _row("plain, physical values only", r.plain_physical), _row("rigid (denoised)", r.rigid),
+                      _row("diagnose", r.diagnose),
                       _row("ratio diagnose/plain", r.diagnose / r.plain),
                       "| diagnose's q̇ cut-off [Hz] | " + " | ".join(f"{c:g}" for c in r.diagnose_cutoff_hz) + " |", "",
                       f"Plain fit selected: {', '.join(r.plain_selected) or 'nothing'}.", "",

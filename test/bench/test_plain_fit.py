@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from repo_paths import SHARED
 
-from bench.plain_fit import COLUMNS, JOINT_EFFECTS, UrdfArm, plain_diagnosis, recording_stats
+from bench.plain_fit import COLUMNS, JOINT_EFFECTS, UrdfArm, physical_levels, plain_diagnosis, recording_stats
 
 URDF = SHARED / "reference" / "baxter.urdf"
 RATE_HZ = 100.0
@@ -99,6 +99,40 @@ def test_joint_values_are_the_planted_ones(planted) -> None:
     for label in ("coulomb_friction@w1", "s1_spring", "armature@e1"):
         with pytest.raises(ValueError, match="no per-joint effect of this fit"):
             result.joint_values(label)
+
+
+def test_physical_values_only_refuses_a_negative_friction(arm: UrdfArm) -> None:
+    """A planted negative viscous coefficient at e1 (−0.8 N·m·s/rad, what no friction does) beside a
+    positive Coulomb term at w0: the plain fit takes a negative viscous friction at e1; with
+    ``physical`` no move leaves a negative friction or armature value anywhere, the Coulomb term
+    at w0 is still found, and e1's held-out error stays near its rigid level."""
+    stats = []
+    for k in range(4):
+        q, qd, qdd = motion(arm, seed=40 + k)
+        effort = arm.torque(q, qd, qdd)
+        effort[:, 3] -= 0.8 * qd[:, 3]
+        effort[:, 4] += 0.3 * np.sign(qd[:, 4])
+        effort += np.random.default_rng(140 + k).normal(0.0, NOISE_NM, effort.shape)
+        stats.append(recording_stats(arm, f"n{k}", q, qd, effort, RATE_HZ))
+    free = plain_diagnosis(stats[:3], stats[3:])
+    at_e1 = [e for e in free.selected if e.endswith("@e1")]
+    assert any(min(physical_levels(e, free.joint_values(e)), default=0.0) < 0 for e in at_e1), free.selected
+    bound = plain_diagnosis(stats[:3], stats[3:], physical=True)
+    assert "coulomb_friction@w0" in bound.selected, bound.selected
+    for e in bound.selected:
+        if "@" in e:
+            assert min(physical_levels(e, bound.joint_values(e)), default=0.0) >= 0, (e, bound.joint_values(e))
+    assert bound.test_rms[3] > 5 * free.test_rms[3]
+
+
+def test_physical_levels_name_what_must_not_be_negative() -> None:
+    """Friction and armature values, Stribeck's as sliding F_c and breakaway F_c + bump; none for
+    an offset, a delay or a gain (either sign is physical)."""
+    assert physical_levels("armature@s1", (-0.4,)) == (-0.4,)
+    assert physical_levels("stribeck_friction(v_s=0.02)@s1", (0.8, -0.9)) == pytest.approx((0.8, -0.1))
+    assert physical_levels("viscous_friction@w0", (0.2,)) == (0.2,)
+    for label in ("torque_offset@w1", "delay@e0", "torque_gain@s0"):
+        assert physical_levels(label, (-1.0,)) == ()
 
 
 def test_never_takes_an_excluded_move(planted) -> None:
