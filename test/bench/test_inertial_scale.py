@@ -4,39 +4,19 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from repo_paths import SHARED
+from urdf_motion import RATE_HZ, motion
 
 from bench.inertial_scale import inertial_scale, main
 from bench.plain_fit import UrdfArm
-
-URDF = SHARED / "reference" / "baxter.urdf"
-RATE_HZ = 100.0
-
-
-@pytest.fixture(scope="module")
-def arm() -> UrdfArm:
-    if not URDF.is_file():
-        pytest.skip(f"Baxter's URDF is not at {URDF} (../shared/reference beside the checkout)")
-    return UrdfArm.from_urdf("left", URDF)
 
 
 @pytest.mark.parametrize("planted", [0.0, -0.2])
 def test_recovers_a_planted_scale_of_the_inertial_torque(arm: UrdfArm, planted: float) -> None:
     """Effort = RNEA at the exact q̈ + planted·(its inertial part) + an offset and Coulomb friction
-    at every joint + noise; sinusoids of 0.2–0.5 Hz: the shoulder and elbow joints' coefficient is
+    at every joint + noise; two sinusoids of 0.1–0.5 Hz per joint: the shoulder and elbow joints' coefficient is
     the planted one (the 4 Hz filter costs a little of the inertial torque, well within 0.02)."""
-    rng = np.random.default_rng(3)
-    t = np.arange(int(30 * RATE_HZ)) / RATE_HZ
-    lo, hi = arm.model.lowerPositionLimit, arm.model.upperPositionLimit
-    q = np.tile(0.5 * (lo + hi), (len(t), 1))
-    qd, qdd = np.zeros_like(q), np.zeros_like(q)
-    for _ in range(2):
-        w = 2 * np.pi * rng.uniform(0.2, 0.5, 7)
-        a = 0.15 * (hi - lo)
-        arg = np.outer(t, w) + rng.uniform(0, 2 * np.pi, 7)
-        q += a * np.sin(arg)
-        qd += a * w * np.cos(arg)
-        qdd -= a * w**2 * np.sin(arg)
+    q, qd, qdd = motion(arm, seed=3, seconds=30.0)
+    rng = np.random.default_rng(4)
     tau = arm.torque(q, qd, qdd)
     effort = tau + planted * (tau - arm.torque(q, qd, np.zeros_like(qdd))) + 0.4 + 0.3 * np.sign(qd)
     effort += rng.normal(0.0, 0.02, effort.shape)

@@ -10,39 +10,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from repo_paths import SHARED
+from urdf_motion import RATE_HZ, motion
 
 from bench.plain_fit import COLUMNS, JOINT_EFFECTS, UrdfArm, physical_levels, plain_diagnosis, recording_stats
 
-URDF = SHARED / "reference" / "baxter.urdf"
-RATE_HZ = 100.0
 COULOMB_E1_NM = 1.5
 OFFSETS_W1_NM = (0.30, 0.34, 0.27, 0.31)  # one per recording; the last is the test recording
 NOISE_NM = 0.02
-
-
-@pytest.fixture(scope="module")
-def arm() -> UrdfArm:
-    if not URDF.is_file():
-        pytest.skip(f"Baxter's URDF is not at {URDF} (../shared/reference beside the checkout)")
-    return UrdfArm.from_urdf("left", URDF)
-
-
-def motion(arm: UrdfArm, seed: int, seconds: float = 20.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(q, q̇, q̈), each (n, 7): per joint two sinusoids of 0.1–0.5 Hz about mid-range, in closed form."""
-    rng = np.random.default_rng(seed)
-    t = np.arange(int(seconds * RATE_HZ)) / RATE_HZ
-    lo, hi = arm.model.lowerPositionLimit, arm.model.upperPositionLimit
-    q = np.tile(0.5 * (lo + hi), (len(t), 1))
-    qd, qdd = np.zeros_like(q), np.zeros_like(q)
-    for _ in range(2):
-        w = 2 * np.pi * rng.uniform(0.1, 0.5, 7)
-        a = 0.12 * (hi - lo) * rng.uniform(0.6, 1.0, 7)
-        arg = np.outer(t, w) + rng.uniform(0, 2 * np.pi, 7)
-        q += a * np.sin(arg)
-        qd += a * w * np.cos(arg)
-        qdd -= a * w**2 * np.sin(arg)
-    return q, qd, qdd
 
 
 @pytest.fixture(scope="module")

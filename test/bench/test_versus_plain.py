@@ -16,6 +16,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 from repo_paths import SHARED
+from urdf_motion import URDF
 
 from bench.plain_fit import JOINT_SUFFIXES
 from bench.versus_plain import (
@@ -32,7 +33,6 @@ from bench.versus_plain import (
 
 DATA = SHARED / "data"
 DATASETS = ("baxter_real", "baxter_other_unit")
-URDF = SHARED / "reference" / "baxter.urdf"
 
 # Printed by `python -m bench.versus_plain` (measured on this branch; re-measure after changing diagnose).
 KNOWN_MISSES: dict[tuple[str, str, str, str], str] = {
