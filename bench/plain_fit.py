@@ -357,11 +357,16 @@ def effect_values(model: Model, result: Fit, label: str) -> tuple[float, ...]:
     return tuple(float(theta[int(COLUMNS[block][j])]) for block in JOINT_EFFECTS[name])
 
 
+def effect_name(label: str) -> str:
+    """The effect a move's label names: "stribeck_friction" of "stribeck_friction(v_s=0.02)@s1"."""
+    return label.split("@")[0].split("(")[0]
+
+
 def physical_levels(label: str, values: tuple[float, ...]) -> tuple[float, ...]:
     """What must be ≥ 0 of a per-joint effect's values for it to be physical: a NON_NEGATIVE
     effect's values (Stribeck's as sliding and breakaway friction, F_c and F_c + bump); () for the
     others (an offset, a delay or a gain may take either sign)."""
-    name = label.split("(")[0].split("@")[0]
+    name = effect_name(label)
     if name not in NON_NEGATIVE:
         return ()
     return (values[0], values[0] + values[1]) if name == "stribeck_friction" else values

@@ -39,7 +39,7 @@ from threadpoolctl import threadpool_limits
 
 from baxter_dynamics_ros.core.output_files import check_outputs, staged_outputs
 from baxter_dynamics_ros.errors import BaxterDynamicsError, DiagnosisError, OutputError
-from bench.plain_fit import CUTOFF_HZ, JOINT_SUFFIXES, RecordingStats, UrdfArm, physical_levels, plain_diagnosis, recording_stats
+from bench.plain_fit import CUTOFF_HZ, JOINT_SUFFIXES, RecordingStats, UrdfArm, effect_name, physical_levels, plain_diagnosis, recording_stats
 from msg_adapters.recording_files import read_recording
 
 REPO = Path(__file__).resolve().parents[1]
@@ -159,10 +159,9 @@ def _plain_at(rotation: Rotation, joint: str) -> list[tuple[str, str]]:
     not select it, with no reason per joint)."""
     out = []
     for chosen in rotation.plain_selected:
-        name, _, at = chosen.partition("@")
-        if at != joint:
+        if chosen.partition("@")[2] != joint:
             continue
-        name = name.split("(")[0]
+        name = effect_name(chosen)
         if joint in rotation.diagnose_joints.get(name, ()):
             out.append((chosen, ""))
         else:
@@ -181,7 +180,7 @@ def _valued(rotation: Rotation, chosen: str) -> str:
     values = rotation.plain_values.get(chosen)
     if values is None:
         return chosen
-    name = chosen.split("(")[0].split("@")[0]
+    name = effect_name(chosen)
     flag = ", negative: not physical" if min(physical_levels(chosen, values), default=0.0) < 0 else ""
     return f"{chosen} ({', '.join(f'{v:.3g}' for v in values)}{' ' + UNITS[name] if UNITS[name] else ''}{flag})"
 
