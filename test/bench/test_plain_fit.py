@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from urdf_motion import RATE_HZ, motion
 
-from bench.plain_fit import COLUMNS, JOINT_EFFECTS, UrdfArm, physical_levels, plain_diagnosis, recording_stats
+from bench.plain_fit import COLUMNS, JOINT_EFFECTS, Fit, Model, UrdfArm, is_physical, physical_levels, plain_diagnosis, recording_stats
 
 COULOMB_E1_NM = 1.5
 OFFSETS_W1_NM = (0.30, 0.34, 0.27, 0.31)  # one per recording; the last is the test recording
@@ -107,6 +107,23 @@ def test_physical_levels_name_what_must_not_be_negative() -> None:
     assert physical_levels("viscous_friction@w0", (0.2,)) == (0.2,)
     for label in ("torque_offset@w1", "delay@e0", "torque_gain@s0"):
         assert physical_levels(label, (-1.0,)) == ()
+
+
+def test_is_physical_checks_every_effect_not_only_the_last_added() -> None:
+    """A model of viscous friction then armature at s1 (columns by hand): physical with both values
+    positive; not physical when the first-added viscous coefficient has turned negative, nor when the
+    armature has; an offset's or gain's negative value leaves it physical."""
+    viscous, armature, gain = (int(COLUMNS[b][1]) for b in ("viscous", "armature", "gain"))
+    model = Model(tuple(sorted((viscous, armature, gain))), (), ("viscous_friction@s1", "armature@s1", "torque_gain@s1"))
+    theta = {viscous: 0.3, armature: 0.1, gain: -0.2}
+
+    def physical(**values: float) -> bool:
+        th = {**theta, **{{"viscous": viscous, "armature": armature}[k]: v for k, v in values.items()}}
+        return is_physical(model, Fit(np.array([th[c] for c in model.columns]), {}))
+
+    assert physical()
+    assert not physical(viscous=-0.01)
+    assert not physical(armature=-0.01)
 
 
 def test_never_takes_an_excluded_move(planted) -> None:
