@@ -12,7 +12,7 @@ from ..core.log_cholesky import pseudo_from_log_cholesky
 from .fit import Fit, Fitter, Term
 from .statistics import Candidate
 
-__all__ = ["inertial_params", "inertial_quantities"]
+__all__ = ["inertial_params", "inertial_quantities", "link_report"]
 
 
 def inertial_quantities(phi: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
@@ -38,7 +38,7 @@ def _quantity_vector(phi: np.ndarray) -> np.ndarray:
 _BOUNDED = {0: "mass", 7: "com x", 8: "com y", 9: "com z"}
 
 
-def _link_report(name: str, phi: np.ndarray, cov: np.ndarray, setup: tuple[np.ndarray, ...], before: tuple | None) -> dict:
+def link_report(name: str, phi: np.ndarray, cov: np.ndarray, setup: tuple[np.ndarray, ...], before: tuple | None) -> dict:
     """One link's (or the payload's) inertials after the fit, their SD, and what the data decided.
 
     setup: the link's (prior std (10,), lower (10,), upper (10,)) of φ. A quantity is *decided by
@@ -82,7 +82,7 @@ def inertial_params(arm: ArmModel, fitter: Fitter, cand: Candidate, term: Term, 
     _, prior_std, lower, upper, _ = fitter.link_setup(cand)
     links = []
     if cand.is_payload:
-        rep = _link_report("payload", phi[0], cov, (prior_std[0], lower[0], upper[0]), None)
+        rep = link_report("payload", phi[0], cov, (prior_std[0], lower[0], upper[0]), None)
         params = {"mass_kg": rep["mass_kg"], **{f"com_m[{a}]": v for a, v in zip("xyz", rep["com_m"])}}
         params.update({f"inertia_kgm2[{q}]": v for q, v in zip(("xx", "xy", "xz", "yy", "yz", "zz"), rep["inertia_about_com_kgm2"])})
         std = {k: _nan_if_none(v) for k, v in zip(params, rep["std"].values())}
@@ -93,7 +93,7 @@ def inertial_params(arm: ArmModel, fitter: Fitter, cand: Candidate, term: Term, 
         j0 = pseudo_inertia(link)
         m0 = float(j0[3, 3])
         before = (m0, link.com_m, link.inertia_kgm2)
-        rep = _link_report(
+        rep = link_report(
             f"link {link_index + 1} ({link.name})", phi[i], cov[10 * i : 10 * i + 10, 10 * i : 10 * i + 10], (prior_std[i], lower[i], upper[i]), before
         )
         sd = np.array([rep["std"][q] if rep["std"][q] is not None else 0.0 for q in ("mass", "com x", "com y", "com z")])
