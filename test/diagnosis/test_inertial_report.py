@@ -64,16 +64,17 @@ def test_what_the_data_decided_is_told_from_what_the_prior_set() -> None:
 
 def test_a_quantity_held_at_its_bound_is_said_so_with_no_sd() -> None:
     """φ's mass coordinate at its lower bound and com z at its upper: both listed under at_bound
-    with a null SD and not as decided by the data; a com x a hair inside its bound is not."""
+    with a null SD, and not as set by the prior; a com x 1 cm inside its bound is not."""
     lower = np.full(10, -np.inf)
     lower[0] = PHI[0]
     upper = np.full(10, np.inf)
     upper[9] = PHI[9]
     upper[7] = PHI[7] + 0.01
-    rep = link_report("link", PHI, np.eye(10) * 1e-8, (np.full(10, 1.0), lower, upper), None)
+    rep = link_report("link", PHI, np.eye(10) * 0.04, (np.full(10, 0.2), lower, upper), None)
     assert rep["at_bound"] == ["mass", "com z"]
     assert rep["std"]["mass"] is None and rep["std"]["com z"] is None and rep["std"]["com x"] is not None
-    assert "mass" not in rep["set_by_prior"] and "com z" not in rep["set_by_prior"]
+    # as wide as the prior, the others are set by it; the bound, not the prior, set those two
+    assert rep["set_by_prior"] == [q for q in QUANTITIES if q not in ("mass", "com z")]
 
 
 def test_the_values_before_the_change_are_reported_beside() -> None:
