@@ -269,15 +269,20 @@ class Fitter:
         )
         constant = per_recording.mean(axis=0)
         cols = self.columns(model)
-        where = {int(c): k for k, c in enumerate(cols)}
+        # Each column's positions in the model, in order: a payload shares link 7's columns with
+        # inertial_error, and the two terms keep their order in both models (canonical).
+        where: dict[int, list[int]] = {}
+        for k, c in enumerate(cols):
+            where.setdefault(int(c), []).append(k)
         x = np.zeros(len(cols))
         free = np.ones(len(cols), dtype=bool)
         cov = np.zeros((len(cols), len(cols)))
-        inner_at = np.array([where[int(c)] for c in inner_cols], dtype=int)
+        unused = {c: iter(at) for c, at in where.items()}
+        inner_at = np.array([next(unused[int(c)]) for c in inner_cols], dtype=int)
         x[inner_at] = inner.x
         free[inner_at] = inner.free
         cov[np.ix_(inner_at, inner_at)] = inner.cov_x
-        off_at = np.array([where[int(c)] for c in off_cols], dtype=int)
+        off_at = np.array([where[int(c)][0] for c in off_cols], dtype=int)
         x[off_at] = constant
         n = self.pool.samples
         between = per_recording.var(axis=0, ddof=1) / len(per_recording) if len(per_recording) > 1 else 0.0

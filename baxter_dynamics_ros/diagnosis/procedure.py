@@ -299,8 +299,8 @@ def _selected_reports(ctx: Scoring, ev: Evaluation, fold_models: list[Model], ri
         joint_folds = {}
         if cand.kind == "joint":
             joint_folds = {ctx.arm.joint_names[j]: sum(t is not None and j in t.joints for t in same_effect) for j in term.joints}
-        alternatives = {
-            other: sum(any(ctx.layout.candidates[t.candidate].name == other for t in fm.terms) for fm in fold_models)
+        alternatives = {  # folds that chose the other member of its family instead of it
+            other: sum(t is None and any(ctx.layout.candidates[u.candidate].name == other for u in fm.terms) for t, fm in zip(same_effect, fold_models))
             for other in sorted(cand.alternatives)
         }
         alternatives = {k: v for k, v in alternatives.items() if v}

@@ -22,7 +22,9 @@ Moves, each accepted only if it lowers S (all compared under the same weights):
   **replace** an effect by its rival (``RIVALS``: ``payload`` ⇄ ``inertial_error``,
   ``coulomb_friction`` ⇄ ``stribeck_friction`` at the same joints, any variant; ``s1_spring`` ⇄ the
   offset at s1), until no such move lowers S; the richer of two rivals must win by the folds'
-  uncertainty. A family member never enters beside another at the same joint.
+  uncertainty. A per-joint family member never enters beside another at the same joint; a payload
+  may enter beside inertial_error (or the reverse) if it wins by that uncertainty too: bounded to
+  their physical ranges they are not nested (``FAMILIES``).
 
 Rivals that the training data cannot tell apart (the swap changes S by less than that
 uncertainty) are reported, with the motion that would separate them (:func:`rivalries`); so are
@@ -214,6 +216,15 @@ class _Search:
                 return delta < self.margin(current, trial)
         return delta < -MOVE_TOLERANCE
 
+    def beside_rival(self, model: Model, trial: Model) -> bool:
+        """Whether ``trial`` adds to ``model`` an effect beside its rival of one family (a payload
+        beside inertial_error, or the reverse): a move to the richer set, which must win by the
+        folds' uncertainty as a swap to it would (:meth:`preferred`)."""
+        have = {t.candidate for t in model.terms}
+        names = {self.layout.candidates[c].name for c in have}
+        added = [self.layout.candidates[t.candidate] for t in trial.terms if t.candidate not in have]
+        return any(c.alternatives & names for c in added if c.kind != "joint")
+
     # -- tests on a term
     def significant(self, ev: Evaluation, positions: np.ndarray) -> bool:
         """Wald test at SIGNIFICANCE of the parameters at positions against zero (bounds count as zero)."""
@@ -279,7 +290,7 @@ class _Search:
             out[S1] = "the s1 spring spans it there"
         for t in model.terms:
             other = self.layout.candidates[t.candidate]
-            if t.candidate != candidate and (other.name == cand.name or other.name in cand.alternatives):
+            if t.candidate != candidate and (other.name == cand.name or (other.name in cand.alternatives and other.kind == "joint")):
                 out |= dict.fromkeys(t.joints if other.kind == "joint" else range(N), f"{other.label} acts there")
         return out
 
@@ -291,14 +302,10 @@ class _Search:
         names_in = {self.layout.candidates[t.candidate].name: t.candidate for t in model.terms}
         if cand.name in names_in and names_in[cand.name] != index:
             return None, None, "another variant of it is selected"
-        blocked = self.blocked_joints(model, index)
         have = model.term(index)
         if cand.kind != "joint":
             if have is not None:
                 return None, None, "selected"
-            if blocked:
-                other = next(self.layout.candidates[t.candidate].label for t in model.terms if self.layout.candidates[t.candidate].name in cand.alternatives)
-                return None, None, f"its alternative {other} is selected"
             trial = self.evaluate(model.with_term(Term(index, self._touched(index))))
             term = trial.model.term(index)
             if not self.joint_gain_ok(current, trial).any():
@@ -306,6 +313,7 @@ class _Search:
             if not self.term_ok(trial, term):
                 return None, trial, "its fitted parameters are at their bounds or within their uncertainty of zero"
             return f"add {cand.label}", trial, ""
+        blocked = self.blocked_joints(model, index)
         free = [j for j in range(N) if j not in blocked and (have is None or j not in have.joints)]
         if not free:
             return None, None, "selected at every joint it may act on" if have else "an alternative acts at every joint"
@@ -398,8 +406,8 @@ class _Search:
             for index, other in enumerate(self.layout.candidates):
                 if frozenset({cand.name, other.name}) not in RIVALS:
                     continue
-                if present.get(other.name, index) != index:
-                    continue  # that effect is in the model with another variant
+                if present.get(other.name, index) != index or (other.kind != "joint" and other.name in present):
+                    continue  # that effect is in the model with another variant, or acts beside this one
                 swapped = self.in_place_of(model, t, index)
                 if swapped is None:
                     continue
@@ -455,7 +463,11 @@ class _Search:
         current = self.reweight(Model())
         self.visited.add(current.model)
         for _ in range(MAX_MOVES):
-            options = [(ev.score, label, ev) for label, ev in self.add_moves(current) if ev.model not in self.visited and self.preferred(current, ev)]
+            options = [
+                (ev.score, label, ev)
+                for label, ev in self.add_moves(current)
+                if ev.model not in self.visited and self.preferred(current, ev, swap=self.beside_rival(current.model, ev.model))
+            ]
             best = min(options, key=lambda o: o[0], default=None)
             if best is None:
                 break
@@ -537,10 +549,16 @@ def explain_unselected(
         label, trial, why = search.try_add(final, index)
         if label is not None:
             change = trial.score - final.score
-            if search.preferred(final, trial):
+            beside = search.beside_rival(final.model, trial.model)
+            if search.preferred(final, trial, swap=beside):
                 why = (
                     f"adding it to the selected set would lower the score by {-change:.3g}, yet the search, "
                     "which tried it in other company, ended without it"
+                )
+            elif beside:
+                why = (
+                    f"adding it beside its rival would {'lower' if change < 0 else 'raise'} the score by {abs(change):.3g}, "
+                    f"not the folds' uncertainty {search.margin(final, trial):.3g} that a move to the richer set must gain"
                 )
             else:
                 why = f"adding it to the selected set would {'lower' if change < 0 else 'raise'} the score by {abs(change):.3g}, not the {MOVE_TOLERANCE:g} a move must gain"

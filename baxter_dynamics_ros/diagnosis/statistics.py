@@ -75,7 +75,10 @@ MAX_CUTOFF_OF_RATE = 0.45
 SPRING_PRIOR_STD_NM = 50.0
 #: The effects whose argument is the low-passed q̇ (:class:`Prepared`).
 _FRICTION = (ViscousFriction, CoulombFriction, StribeckFriction)
-#: Families of effects that are alternatives of each other (at most one per joint).
+#: Families of effects that are alternatives of each other, the simpler nested in the richer. A
+#: per-joint family has at most one member at a joint; payload and inertial_error may act together:
+#: bounded, they are not nested (a gripper of kilograms at the flange is no change of link 7 within
+#: 50–150 % of its 0.54 kg, and an error of the arm's own links no load in its hand).
 FAMILIES = (frozenset({"payload", "inertial_error"}), frozenset({"coulomb_friction", "stribeck_friction"}))
 #: Per-joint effects the s1 spring spans at s1: its preload is an offset, and its cosine and sine
 #: carry the shape of s1's gravity load, which a torque gain scales. With the spring in a model
@@ -97,7 +100,7 @@ class Candidate:
     lower: (p,) lower bounds of the linear kinds' parameters; variant: the shape parameter's value
     (None where the effect has one form); prior_std: (p,) standard deviations of
     the zero-mean Gaussian priors of a "linear" kind's parameters (inf: none). alternatives: the
-    effects it is an alternative of (:data:`FAMILIES`: at most one of them per joint);
+    effects it is an alternative of (:data:`FAMILIES`; a per-joint one's: at most one of them per joint);
     spanned_by_spring: with the s1 spring in a model it does not act at s1 (:data:`SPANNED_BY_SPRING`).
     """
 

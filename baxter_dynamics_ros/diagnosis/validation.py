@@ -8,7 +8,8 @@ told about, with quantisation and torque noise like the real robot (q to 2π/163
   recordings (two random excitations and the paper's y trajectory), measured on two others (a
   third random excitation and the paper's xyz trajectory);
 - scenarios like the failures seen on real recordings from outside the project: a gripper of
-  0.5–2 kg at the flange; a 25–40 % mass error of a distal link; two training recordings only;
+  0.5–2 kg at the flange, alone or on an arm with a heavier link; a 25–40 % mass error of a distal
+  link; two training recordings only;
   data at 500 Hz; training and test of different kinds of motion; sensor offsets that differ from
   one recording to the next; effort noise at the real robot's floor (0.3 N·m) with q̇ noise.
 
@@ -156,6 +157,10 @@ def _offsets(seed: int, count: int) -> tuple[dict[str, Any], ...]:
 HARD: tuple[Scenario, ...] = (
     Scenario("gripper 0.5 kg at the flange", {"payload": {"mass_kg": 0.5, "com_m": [0.0, 0.01, 0.08], "size_m": [0.08, 0.08, 0.12]}}),
     Scenario("gripper 2 kg at the flange", {"payload": {"mass_kg": 2.0, "com_m": [0.01, 0.0, 0.1], "size_m": [0.1, 0.12, 0.16]}}),
+    Scenario(
+        "gripper 2 kg at the flange of an arm whose e1 link is 40 % heavier",
+        {"payload": {"mass_kg": 2.0, "com_m": [0.01, 0.0, 0.1], "size_m": [0.1, 0.12, 0.16]}, "inertial_error": {"mass_scale": {"e1": 1.4}}},
+    ),
     Scenario("e0 mass +25 %", {"inertial_error": {"mass_scale": {"e0": 1.25}}}),
     Scenario("e1 mass +40 %", {"inertial_error": {"mass_scale": {"e1": 1.4}}}),
     Scenario("w0 mass +30 %", {"inertial_error": {"mass_scale": {"w0": 1.3}}}),

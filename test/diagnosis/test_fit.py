@@ -193,3 +193,26 @@ def test_offsets_are_each_recordings_own_within_a_sensors_drift(arm) -> None:
     o3, v3 = at[layout.candidates[offset].columns[3]], at[layout.candidates[viscous].columns[3]]
     np.testing.assert_allclose(fit.x[[v3, o3]], shared, rtol=1e-6, atol=1e-6)
     assert fit.df == pytest.approx(N + 2, abs=1e-4)
+
+
+def test_a_payload_beside_a_link_change_keeps_its_own_parameters(arm) -> None:
+    """A payload and inertial_error in one model share link 7's columns; with per-recording offsets
+    (profiled out at w1) each term's x must still be its own φ's inertial parameters — the payload's
+    π(φ), inertial_error's π(φ) − π(φ₀) per link — not one term's value written in both places."""
+    from baxter_dynamics_ros.core.log_cholesky import parameters_from_log_cholesky
+
+    carried = Payload(mass_kg=1.5, com_m=(0.0, 0.02, 0.06)).apply_to(arm)
+    named = [(f"L{s}", _offset(recording(arm, s, carried=carried), {5: 0.1 * k})) for k, s in enumerate((93, 94))]
+    layout = column_layout()
+    fitter = Fitter(arm, layout, Pool.of(blocks_of(arm, named, CUTOFF_HZ)), np.ones(N), 3.0)
+    payload, inertial, offset = _index(layout, "payload"), _index(layout, "inertial_error"), _index(layout, "torque_offset")
+    model = Model.of([Term(offset, (5,)), Term(payload, tuple(range(N))), Term(inertial, tuple(range(N)))])
+    fit = fitter.fit(model)
+    assert fit.offset_joints == (5,)
+    at = fitter.positions(model)
+    pi_payload = parameters_from_log_cholesky(fit.phi[payload])[0][0]
+    pi_links = parameters_from_log_cholesky(fit.phi[inertial])[0]
+    np.testing.assert_allclose(fit.x[at[model.term(payload)]], pi_payload, rtol=1e-9, atol=1e-12)
+    reference = fitter.link_setup(layout.candidates[inertial]).pi_reference
+    np.testing.assert_allclose(fit.x[at[model.term(inertial)]], (pi_links - reference).ravel(), rtol=1e-9, atol=1e-12)
+    assert pi_payload[0] > 0.5  # the load is carried by the payload, not only by link 7 (≤ 150 % of 0.54 kg)
