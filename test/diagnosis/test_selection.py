@@ -116,7 +116,8 @@ def test_the_richer_of_two_alternatives_must_win_by_the_folds_uncertainty(arm) -
     """Between payload (10 parameters) and inertial_error (70): a swap to the richer is taken only
     when its score is lower by the margin — twice the standard error of the folds' weighted
     held-out differences, written out here (≥ MOVE_TOLERANCE 1) — and a swap back to the simpler
-    unless the richer is better by that much; a move that is no swap needs the tolerance alone."""
+    unless the richer is better by that much; a move that is no swap needs the tolerance alone, but
+    adding one of them beside the other counts as a move to the richer (``beside_rival``)."""
     named = [(f"A{k}", recording(arm, 71 + k)) for k in range(3)]
     layout = column_layout()
     search = _Search(arm, layout, Pool.of(blocks_of(arm, named, CUTOFF_HZ)))
@@ -138,6 +139,13 @@ def test_the_richer_of_two_alternatives_must_win_by_the_folds_uncertainty(arm) -
         assert search.preferred(ev(inertial, 100.0 - lower), ev(payload, 100.0), swap=True) is swap_back
     assert search.preferred(ev(payload, 100.0), ev(inertial, 98.0))  # an add, not a swap: 2 > 1 suffices
     assert not search.preferred(ev(payload, 100.0), ev(inertial, 99.5))
+    # Adding one beside the other is a move to the richer set too: the search asks it the margin.
+    both = Model.of([*payload.terms, *inertial.terms])
+    coulomb = Term(_index(layout, "coulomb_friction", "smoothing 0.05 rad/s"), (1, 2))
+    assert search.beside_rival(payload, both) and search.beside_rival(inertial, both)
+    assert not search.beside_rival(Model(), payload) and not search.beside_rival(payload, Model.of([*payload.terms, coulomb]))
+    stribeck = Term(_index(layout, "stribeck_friction", "v_s 0.05 rad/s"), (3,))
+    assert not search.beside_rival(Model.of([coulomb]), Model.of([coulomb, stribeck]))  # per-joint: never at one joint
 
 
 # ----------------------------------------------------------------------------- stability and attribution
