@@ -282,15 +282,15 @@ class _Search:
 
     # -- moves
     def blocked_joints(self, model: Model, candidate: int) -> dict[int, str]:
-        """Joints where another member of the candidate's family (or another variant) already acts,
-        or the s1 spring spans it: joint -> what acts there, in words."""
+        """Joints where another member of a per-joint candidate's family (or another variant) already
+        acts, or the s1 spring spans it: joint -> what acts there, in words."""
         cand = self.layout.candidates[candidate]
         out: dict[int, str] = {}
         if cand.spanned_by_spring and self.layout.has_spring(model):
             out[S1] = "the s1 spring spans it there"
         for t in model.terms:
             other = self.layout.candidates[t.candidate]
-            if t.candidate != candidate and (other.name == cand.name or (other.name in cand.alternatives and other.kind == "joint")):
+            if t.candidate != candidate and (other.name == cand.name or other.name in cand.alternatives):
                 out |= dict.fromkeys(t.joints if other.kind == "joint" else range(N), f"{other.label} acts there")
         return out
 
