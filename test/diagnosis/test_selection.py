@@ -7,6 +7,7 @@ recordings. Recordings are small and built by ``synthetic_recordings`` (Pinocchi
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from itertools import combinations
 from math import factorial
 
@@ -172,13 +173,10 @@ def test_folds_selected_is_the_folds_own_selection(arm, friction_run) -> None:
     assert selected["coulomb_friction"].uncertain
 
 
-def test_shares_are_shapley_values(arm, friction_run) -> None:
-    """Each selected physical effect's share is its Shapley value in the training residual's fall,
-    brute force over every subset of the selected effects: each subset refitted by numpy's least
-    squares per joint on q̇ and tanh(q̇/ε) (q̇ low-passed by scipy at the diagnosis' cut-off) of the
-    pooled training recordings (denoised residual).
-    The two frictions overlap at the joint they share, so a standalone value differs from it."""
-    result, train, _ = friction_run
+def _subset_values(arm, result: DiagnosisResult, train) -> tuple[list, Callable[[tuple[str, ...]], float]]:
+    """The selected physical effects of a friction diagnosis, and the fall of the training residual
+    (denoised, N·m² per sample) that a subset of them gives: each subset refitted by numpy's least
+    squares per joint on q̇ and tanh(q̇/ε) (q̇ low-passed by scipy at the diagnosis' cut-off)."""
     selected = [e for e in result.effects if e.selected and e.name != "acceleration_noise"]
     assert {e.name for e in selected} == {"viscous_friction", "coulomb_friction"}
     qd = np.vstack([lowpassed_velocity(rec, result.cutoff_hz) for _, rec in train])
@@ -202,6 +200,15 @@ def test_shares_are_shapley_values(arm, friction_run) -> None:
                 fall += float(np.sum(r[:, j] ** 2) - np.sum((r[:, j] - X @ coef) ** 2))
         return fall / n
 
+    return selected, value
+
+
+def test_shares_are_shapley_values(arm, friction_run) -> None:
+    """Each selected physical effect's share is its Shapley value in the training residual's fall,
+    brute force over every subset of the selected effects (:func:`_subset_values`). The two
+    frictions overlap at the joint they share, so a standalone value differs from it."""
+    result, train, _ = friction_run
+    selected, value = _subset_values(arm, result, train)
     names = [e.name for e in selected]
     k = len(names)
     for e in selected:
@@ -214,6 +221,26 @@ def test_shares_are_shapley_values(arm, friction_run) -> None:
         assert e.share == pytest.approx(shapley, rel=1e-5), e.name
         if e.name == "coulomb_friction":
             assert abs(value((e.name,)) - shapley) > 1e-3 * abs(shapley)  # standalone ≠ Shapley here
+
+
+def test_shares_from_random_orders_add_up_to_the_whole_fall(arm, friction_run, monkeypatch) -> None:
+    """Above EXACT_SHAPLEY_MAX effects the shares are averaged over random orders (here forced with
+    two): in every order the marginal gains add up to the fall of all of them together, so the
+    shares do exactly; each share lies strictly between its effect's marginal gain first and last
+    (both orders drawn)."""
+    import baxter_dynamics_ros.diagnosis.attribution as attribution
+
+    monkeypatch.setattr(attribution, "EXACT_SHAPLEY_MAX", 0)
+    _, train, test = friction_run
+    result = diagnose(validation_arm(), train, test)
+    selected, value = _subset_values(arm, result, train)
+    assert sum(e.share for e in selected) == pytest.approx(value(tuple(e.name for e in selected)), rel=1e-6)
+    for e in selected:
+        (other,) = (m.name for m in selected if m.name != e.name)
+        first, last = value((e.name,)), value((e.name, other)) - value((other,))
+        assert abs(first - last) > 1e-3 * abs(first)  # the orders differ here: the bounds are no tautology
+        # strictly inside: both orders were drawn (one order every time would give an end)
+        assert min(first, last) + 0.05 * abs(first - last) < e.share < max(first, last) - 0.05 * abs(first - last), (e.name, first, last, e.share)
 
 
 # ----------------------------------------------------------------------------- weak or absent effects
