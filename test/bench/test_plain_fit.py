@@ -112,7 +112,7 @@ def test_physical_levels_name_what_must_not_be_negative() -> None:
 def test_is_physical_checks_every_effect_not_only_the_last_added() -> None:
     """A model of viscous friction then armature at s1 (columns by hand): physical with both values
     positive; not physical when the first-added viscous coefficient has turned negative, nor when the
-    armature has; an offset's or gain's negative value leaves it physical."""
+    armature has; the gain's negative value leaves it physical (a gain may take either sign)."""
     viscous, armature, gain = (int(COLUMNS[b][1]) for b in ("viscous", "armature", "gain"))
     model = Model(tuple(sorted((viscous, armature, gain))), (), ("viscous_friction@s1", "armature@s1", "torque_gain@s1"))
     theta = {viscous: 0.3, armature: 0.1, gain: -0.2}
