@@ -1,7 +1,8 @@
 """Recordings as tables: CSV files (and Parquet, same columns) in and out.
 
 Two column layouts are read; joints are matched by name, columns may come in any order and extra
-columns are ignored:
+columns are ignored. A text table's fields are separated by commas, semicolons or whitespace (tabs
+too), as its header line's are; it may be compressed whole (:mod:`msg_adapters.text_files`).
 
 - **Baxter export** (the layout of the real recordings in ``../shared/data/baxter_real``):
   whitespace-separated, one header line, columns ``ang_<joint>`` (rad), ``vel_<joint>`` (rad/s),
@@ -45,6 +46,8 @@ from baxter_dynamics_ros.core.recording import (
 )  # fmt: skip
 from baxter_dynamics_ros.errors import RecordingFileError
 
+from .text_files import kind_suffix, read_text
+
 __all__ = ["RATE_TOLERANCE", "Note", "columns_recording", "joint_state_columns", "read_table_recording", "write_processed_table", "write_table"]
 
 #: Largest relative difference between a given sample rate and the estimated one that is accepted.
@@ -65,11 +68,11 @@ def _refuse_duplicates(path: Path, names: Sequence[str]) -> None:
 
 
 def _read_columns(path: Path) -> dict[str, np.ndarray]:
-    """Every column of a CSV (comma or whitespace separated) or Parquet file, by header name; a
-    name given twice is refused."""
+    """Every column of a text table (comma, semicolon or whitespace separated; compressed or not:
+    :mod:`msg_adapters.text_files`) or a Parquet file, by header name; a name given twice is refused."""
     if not path.is_file():
         raise RecordingFileError(f"{path}: no such file")
-    if path.suffix == ".parquet":
+    if kind_suffix(path) == ".parquet":
         import pyarrow.parquet as pq
 
         try:
@@ -90,16 +93,13 @@ def _read_columns(path: Path) -> dict[str, np.ndarray]:
             except (TypeError, ValueError) as err:
                 raise RecordingFileError(f"{path}: column {name} does not hold numbers ({err})") from err
         return columns
-    try:
-        lines = path.read_text(encoding="utf-8").splitlines()
-    except UnicodeDecodeError as err:
-        raise RecordingFileError(f"{path}: not a text table ({err})") from err
+    lines = read_text(path).splitlines()
     if not lines or not lines[0].strip():
         raise RecordingFileError(f"{path}: empty file, expected a header line of column names")
     rows = [line for line in lines[1:] if line.strip()]
     if not rows:
         raise RecordingFileError(f"{path}: no data rows under the header line")
-    delimiter = "," if "," in lines[0] else None
+    delimiter = next((d for d in (",", ";") if d in lines[0]), None)  # else whitespace (tabs too)
     names = [n.strip() for n in lines[0].split(delimiter)]
     _refuse_duplicates(path, names)
     try:

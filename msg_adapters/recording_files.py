@@ -1,10 +1,12 @@
 """Which reader and writer a path calls for, and output written whole or not at all.
 
-Inputs: ``.csv``, ``.txt``, ``.parquet`` are tables (:mod:`msg_adapters.csv_io`; joint states
+Inputs, by what their suffix says they hold (:func:`~msg_adapters.text_files.kind_suffix`): ``.csv``,
+``.txt``, ``.tsv``, ``.dat`` (each also compressed: ``.gz``, ``.bz2``, ``.xz`` after it;
+:mod:`msg_adapters.text_files`) and ``.parquet`` are tables (:mod:`msg_adapters.csv_io`; joint states
 dumped by ``rostopic echo -p``, recognised by their header: :mod:`msg_adapters.rostopic_table`);
 ``.mat`` are MATLAB files of one or more recordings, ``<file>.mat:<part>`` naming one
-(:mod:`msg_adapters.mat_files`); anything else is a bag (:mod:`msg_adapters.bag_io`: ``.bag``, a ROS 2 bag directory, ``.mcap``,
-``.db3``).
+(:mod:`msg_adapters.mat_files`); ``.bag``, ``.mcap``, ``.db3`` and folders are bags
+(:mod:`msg_adapters.bag_io`; a ROS 2 bag is a folder); a file of any other kind is refused, naming the kinds.
 
 Outputs, by the path's extension:
 
@@ -33,17 +35,23 @@ from .bag_io import DEFAULT_TOPIC, Progress, read_bag_recording, write_joint_sta
 from .csv_io import Note, joint_state_columns, read_table_recording, write_processed_table, write_table
 from .mat_files import MAT_SUFFIX, mat_parts, read_mat_recording, split_part
 from .rostopic_table import is_rostopic_table, read_rostopic_recording
+from .text_files import COMPRESSION_SUFFIXES, TEXT_SUFFIXES, kind_suffix
 
 __all__ = [
-    "BAG_SUFFIXES", "INPUT_SUFFIXES", "OUTPUT_FORMATS", "TABLE_SUFFIXES", "is_bag_folder", "check_output", "print_to_stderr", "read_recording",
+    "BAG_SUFFIXES", "INPUT_KINDS", "INPUT_SUFFIXES", "OUTPUT_FORMATS", "TABLE_SUFFIXES", "is_bag_folder", "check_output", "print_to_stderr", "read_recording",
     "recordings_in", "source_file", "write_joint_states", "write_processed",
 ]  # fmt: skip
 
-TABLE_SUFFIXES = (".csv", ".txt", ".parquet")
+TABLE_SUFFIXES = (*TEXT_SUFFIXES, ".parquet")
 #: Bag files the readers know (a ROS 2 bag folder, holding metadata.yaml, is read too).
 BAG_SUFFIXES = (".bag", ".mcap", ".db3")
-#: Every file an input may be (a ROS 2 bag folder besides).
+#: Every kind of file an input may be (:func:`~msg_adapters.text_files.kind_suffix`; a ROS 2 bag folder besides).
 INPUT_SUFFIXES = (*BAG_SUFFIXES, *TABLE_SUFFIXES, MAT_SUFFIX)
+#: The kinds of input, in words for messages.
+INPUT_KINDS = (
+    f"bags {', '.join(BAG_SUFFIXES)}, ROS 2 bag folders, tables {', '.join(TABLE_SUFFIXES)} "
+    f"(text tables also compressed: {', '.join(COMPRESSION_SUFFIXES)}), MATLAB files {MAT_SUFFIX}"
+)
 #: Output extension -> format.
 OUTPUT_FORMATS = {".mcap": "mcap", ".csv": "csv", ".parquet": "parquet"}
 
@@ -69,13 +77,16 @@ def read_recording(
     path for anything wrong with the file's contents.
     """
     path, part = split_part(path)
+    kind = kind_suffix(path)
     try:
-        if path.suffix == MAT_SUFFIX:
+        if kind == MAT_SUFFIX:
             return read_mat_recording(path, part, arm=arm, rate_hz=rate_hz, note=note)
-        if path.suffix in TABLE_SUFFIXES:
+        if kind in TABLE_SUFFIXES:
             if is_rostopic_table(path):
                 return read_rostopic_recording(path, arm=arm, note=note)
             return read_table_recording(path, arm=arm, rate_hz=rate_hz, note=note)
+        if path.is_file() and kind not in BAG_SUFFIXES:
+            raise RecordingError(f"not a kind of recording this package reads ({kind or 'no suffix'}); it reads {INPUT_KINDS}")
         return read_bag_recording(path, topic=topic, arm=arm, progress=progress, note=note)
     except RecordingError as err:
         raise RecordingFileError(f"{path if part is None else f'{path}:{part}'}: {err}") from err
@@ -93,7 +104,7 @@ def recordings_in(path: str | os.PathLike[str], *, listed: bool = False) -> list
     read then says so). RecordingFileError for a MATLAB file that cannot be read, or that a file
     named like one of its parts would hide."""
     path = Path(path)
-    if path.suffix != MAT_SUFFIX or not path.is_file():
+    if kind_suffix(path) != MAT_SUFFIX or not path.is_file():
         return [path]
     parts = mat_parts(path)
     if len(parts) <= 1:

@@ -36,6 +36,7 @@ from baxter_dynamics_ros.errors import RecordingFileError
 
 from .bag_io import TopicData, joint_state_recording
 from .serialized_joint_states import JointStateBlock
+from .text_files import UNREADABLE, open_text, unreadable_reason
 
 __all__ = ["is_rostopic_table", "read_rostopic_recording"]
 
@@ -43,8 +44,8 @@ __all__ = ["is_rostopic_table", "read_rostopic_recording"]
 HEADER_START = "%time,"
 NAMES_FIELD = "field.name0"
 STAMP_FIELD = "field.header.stamp"
-#: Bytes read to recognise the layout (a header of a few hundred joints fits).
-SNIFF_BYTES = 65536
+#: Characters read to recognise the layout (a header of a few hundred joints fits).
+SNIFF_CHARACTERS = 65536
 #: Rows decoded at a time.
 CHUNK_ROWS = 8192
 #: A header field of an array's element (``field.position3``): its array is the name without the index.
@@ -54,9 +55,9 @@ _ARRAY_FIELD = re.compile(r"\d+$")
 def is_rostopic_table(path: str | os.PathLike[str]) -> bool:
     """Whether ``path`` is a file whose first line is the header of ``rostopic echo -p`` joint states."""
     try:
-        with open(path, "rb") as f:
-            first = f.read(SNIFF_BYTES).split(b"\n", 1)[0].decode("utf-8-sig")
-    except (OSError, UnicodeDecodeError):
+        with open_text(path) as f:
+            first = f.readline(SNIFF_CHARACTERS)
+    except (*UNREADABLE, UnicodeDecodeError):
         return False
     return _header_fields(first) is not None
 
@@ -216,7 +217,7 @@ def _topic_data(path: str | os.PathLike[str], note: Callable[[str], None] | None
     unreadable = 0
     names: tuple[str, ...] = ()
     try:
-        with open(path, encoding="utf-8-sig") as f:
+        with open_text(path) as f:
             header = _header_fields(f.readline())
             if header is None:
                 raise RecordingFileError(
@@ -249,8 +250,8 @@ def _topic_data(path: str | os.PathLike[str], note: Callable[[str], None] | None
                 rows.add(time_ns, stamp_ns, names, numbers)
                 if len(rows.times_ns) % CHUNK_ROWS == 0:
                     rows.flush()
-    except OSError as err:
-        raise RecordingFileError(f"{path}: cannot read the file ({err.strerror or err})") from err
+    except UNREADABLE as err:
+        raise RecordingFileError(f"{path}: cannot read the file ({unreadable_reason(err)})") from err
     except UnicodeDecodeError as err:
         raise RecordingFileError(f"{path}: not a text table ({err})") from err
     rows.flush()

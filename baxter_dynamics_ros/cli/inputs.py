@@ -32,6 +32,8 @@ _PATTERN_CHARACTERS = frozenset("*?[")
 
 def expand_inputs(paths: Sequence[Path]) -> list[Path]:
     """The recordings that ``paths`` stand for, in the given order (each folder's and pattern's sorted)."""
+    from msg_adapters.recording_files import INPUT_KINDS
+
     out: list[Path] = []
     for path in paths:
         if path.exists() or not _PATTERN_CHARACTERS & set(str(path)):
@@ -39,32 +41,27 @@ def expand_inputs(paths: Sequence[Path]) -> list[Path]:
             continue
         found = [r for match in sorted(glob.glob(str(path))) for r in _recordings_at(Path(match), quiet=True)]
         if not found:
-            raise RecordingFileError(f"{path}: no recording matches this pattern ({_kinds()})")
+            raise RecordingFileError(f"{path}: no recording matches this pattern ({INPUT_KINDS})")
         out += found
     return out
-
-
-def _kinds() -> str:
-    from msg_adapters.recording_files import BAG_SUFFIXES, TABLE_SUFFIXES
-
-    return f"bags {', '.join(BAG_SUFFIXES)}, ROS 2 bag folders, tables {', '.join(TABLE_SUFFIXES)}, MATLAB files .mat"
 
 
 def _recordings_at(path: Path, *, quiet: bool) -> list[Path]:
     """path itself, or for a folder that is no bag the recordings in it. quiet (a pattern's match):
     [] for a file of another kind or a folder without recordings, instead of path or an error."""
-    from msg_adapters.recording_files import INPUT_SUFFIXES, is_bag_folder, recordings_in
+    from msg_adapters.recording_files import INPUT_KINDS, INPUT_SUFFIXES, is_bag_folder, recordings_in
+    from msg_adapters.text_files import kind_suffix
 
     if is_bag_folder(path):
         return [path]
     if path.is_file():
-        return recordings_in(path, listed=quiet) if not quiet or path.suffix in INPUT_SUFFIXES else []
+        return recordings_in(path, listed=quiet) if not quiet or kind_suffix(path) in INPUT_SUFFIXES else []
     if not path.is_dir():
         return [] if quiet else [path]
-    found = sorted(p for p in path.iterdir() if (p.is_file() and p.suffix in INPUT_SUFFIXES) or is_bag_folder(p))
+    found = sorted(p for p in path.iterdir() if (p.is_file() and kind_suffix(p) in INPUT_SUFFIXES) or is_bag_folder(p))
     found = [r for p in found for r in recordings_in(p, listed=True)]
     if not found and not quiet:
-        raise RecordingFileError(f"{path}: a folder with no recording in it ({_kinds()}); give files, bag folders or a folder of them")
+        raise RecordingFileError(f"{path}: a folder with no recording in it ({INPUT_KINDS}); give files, bag folders or a folder of them")
     return found
 
 

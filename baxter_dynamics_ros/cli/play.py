@@ -37,14 +37,16 @@ def run(args: argparse.Namespace) -> int:
     from msg_adapters.bag_io import DEFAULT_TOPIC, read_joint_state_messages
     from msg_adapters.mat_files import MAT_SUFFIX, split_part
     from msg_adapters.recording_files import TABLE_SUFFIXES
+    from msg_adapters.text_files import kind_suffix
 
     from ..errors import PlaybackError
 
     if not (args.speed > 0):
         raise PlaybackError(f"--speed must be positive, got {args.speed}")
     file, part = split_part(args.bag)
-    if file.suffix in (*TABLE_SUFFIXES, MAT_SUFFIX):
-        one = f"{file}:{part or 'PART'} --arm ARM" if file.suffix == MAT_SUFFIX else f"{file}"
+    kind = kind_suffix(file)
+    if kind in (*TABLE_SUFFIXES, MAT_SUFFIX):
+        one = f"{file}:{part or 'PART'} --arm ARM" if kind == MAT_SUFFIX else f"{file}"
         raise PlaybackError(
             f"{args.bag}: play takes bags (.bag, a ROS 2 bag folder, .mcap, .db3), not tables or MATLAB files; make one with "
             f"`baxter-dynamics process {one} --out BAG.mcap` and play it with --topics {DEFAULT_TOPIC}"

@@ -1,7 +1,7 @@
 """``baxter-dynamics process INPUT --out OUTPUT``: the model's torques for every sample of a file.
 
 Reads joint states from a bag (ROS 1 ``.bag``, ROS 2 directory, ``.mcap``, ``.db3``) or a table
-(``.csv``, ``.txt``, ``.parquet``), estimates q̈, computes gravity, inverse dynamics and residual,
+(``.csv``, ``.txt``, ``.tsv``, ``.dat``, each also compressed, ``.parquet``), estimates q̈, computes gravity, inverse dynamics and residual,
 and writes them where ``--out`` says: a ``.mcap`` ROS 2 bag with the live node's topics, a ``.csv``
 or ``.parquet`` table. INPUT may also be several files, a folder of recordings or a quoted pattern
 (:mod:`~baxter_dynamics_ros.cli.inputs`); when it is more than one file, a folder or a pattern (even
@@ -32,7 +32,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
     parser.add_argument(
         "input", type=Path, nargs="+", metavar="INPUT",
-        help="bag (.bag, ROS 2 folder, .mcap, .db3), table (.csv, .txt, .parquet) or MATLAB file (.mat; FILE.mat:PART for one of its recordings); or several, a folder of them, a quoted pattern",
+        help="bag (.bag, ROS 2 folder, .mcap, .db3), table (.csv, .txt, .tsv, .dat, each also .gz/.bz2/.xz; .parquet) or MATLAB file (.mat; FILE.mat:PART for one of its recordings); or several, a folder of them, a quoted pattern",
     )
     parser.add_argument(
         "--out", "-o", type=Path, required=True, metavar="OUTPUT",
@@ -97,13 +97,14 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _output_stem(path: Path) -> str:
-    """The name of an input's output in a folder, without extension: the file's stem (a bag
-    folder's name), ``<stem>_<part>`` for a part of a MATLAB file."""
+    """The name of an input's output in a folder, without extension: the file's name without its
+    kind and compression suffixes (``run`` for ``run.csv.gz``; a bag folder's name),
+    ``<stem>_<part>`` for a part of a MATLAB file."""
     from msg_adapters.mat_files import split_part
+    from msg_adapters.text_files import stem
 
     file, part = split_part(path)
-    stem = file.stem if file.suffix else file.name
-    return stem if part is None else f"{stem}_{part}"
+    return stem(file) if part is None else f"{stem(file)}_{part}"
 
 
 @dataclass(frozen=True)

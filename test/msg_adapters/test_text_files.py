@@ -1,0 +1,107 @@
+"""Text tables as datasets publish them (msg_adapters/text_files.py): compressed whole with the
+standard library's gzip, bz2 and lzma, other separators, a byte-order mark, suffixes in capitals; and
+files of kinds no reader knows, refused naming the kinds."""
+
+from __future__ import annotations
+
+import bz2
+import gzip
+import lzma
+from pathlib import Path
+
+import numpy as np
+import pytest
+from cli_runs import listing, run_cli, the_error
+from recorded_bags import columns, joint_states, write_baxter_export, write_rostopic_table
+
+from baxter_dynamics_ros.cli.inputs import expand_inputs
+from baxter_dynamics_ros.core.joints import arm_joint_names
+from baxter_dynamics_ros.errors import RecordingFileError
+from msg_adapters.recording_files import read_recording
+from msg_adapters.text_files import kind_suffix, stem
+
+N = 300
+COMPRESSORS = {".gz": gzip.compress, ".bz2": bz2.compress, ".xz": lzma.compress}
+
+
+def assert_left_arm(rec, states: dict) -> None:
+    assert rec.side == "left"
+    for got, want in zip((rec.q, rec.qd, rec.effort), columns(states, arm_joint_names("left"))):
+        np.testing.assert_array_equal(got, want)
+
+
+def test_kind_and_stem_read_through_a_compression_suffix_only_after_a_text_table() -> None:
+    cases = {
+        "run.csv": (".csv", "run"), "run.CSV": (".csv", "run"), "run.csv.gz": (".csv", "run"), "a.b.txt.BZ2": (".txt", "a.b"),
+        "run.tsv.xz": (".tsv", "run"), "run.mat.gz": (".gz", "run.mat"), "run.parquet.gz": (".gz", "run.parquet"),
+        "run.gz": (".gz", "run"), "bag_folder": ("", "bag_folder"), "run.mcap": (".mcap", "run"),
+    }  # fmt: skip
+    for name, (kind, bare) in cases.items():
+        assert (kind_suffix(Path("/data") / name), stem(name)) == (kind, bare), name
+
+
+@pytest.mark.parametrize("suffix", [".csv.gz", ".txt.bz2", ".tsv.xz", ".CSV.GZ"])
+def test_a_compressed_table_reads_as_the_table_itself(tmp_path: Path, suffix: str) -> None:
+    states = joint_states(N, rate_hz=50.0)
+    plain = write_baxter_export(tmp_path / "plain.csv", states)
+    packed = tmp_path / f"run{suffix}"
+    packed.write_bytes(COMPRESSORS[Path(suffix.lower()).suffix](plain.read_bytes()))
+    rec = read_recording(packed, rate_hz=50.0, note=None)
+    assert_left_arm(rec, states)
+    np.testing.assert_array_equal(rec.stamps_ns, read_recording(plain, rate_hz=50.0, note=None).stamps_ns)
+
+
+def test_semicolons_tabs_and_a_byte_order_mark_are_read_as_the_header_separates(tmp_path: Path) -> None:
+    states = joint_states(N, rate_hz=50.0)
+    text = write_baxter_export(tmp_path / "plain.csv", states).read_text()
+    for name, body in {"semi.csv": text.replace(" ", ";"), "tabs.tsv": text.replace(" ", "\t"), "bom.csv": "\ufeff" + text}.items():
+        (tmp_path / name).write_text(body, encoding="utf-8")
+        assert_left_arm(read_recording(tmp_path / name, rate_hz=50.0, note=None), states)
+
+
+def test_a_compressed_rostopic_table_is_recognised(tmp_path: Path) -> None:
+    states = joint_states(N)
+    plain = write_rostopic_table(tmp_path / "joint_states.csv", states)
+    packed = tmp_path / "joint_states.csv.gz"
+    packed.write_bytes(gzip.compress(plain.read_bytes()))
+    rec = read_recording(packed, arm="left", note=None)
+    assert_left_arm(rec, states)
+    np.testing.assert_array_equal(rec.stamps_ns, states["stamps_ns"])
+
+
+def test_broken_compressed_tables_and_unknown_kinds_are_refused_naming_the_file(tmp_path: Path) -> None:
+    states = joint_states(N, rate_hz=50.0)
+    data = write_baxter_export(tmp_path / "plain.csv", states).read_bytes()
+    broken = {
+        "cut.csv.gz": (gzip.compress(data)[:2000], "cannot read the file \\(it is cut short"),
+        "fake.csv.gz": (data, "cannot read the file \\(Not a gzipped file"),
+        "fake.txt.bz2": (data, "cannot read the file \\(Invalid data stream"),
+        "fake.tsv.xz": (data, "cannot read the file \\(Input format not supported"),
+        "binary.csv.gz": (gzip.compress(bytes(range(256)) * 4), "not a text table"),
+        "run.zip": (data, "not a kind of recording this package reads \\(.zip\\); it reads bags .bag"),
+        "run.mat.gz": (gzip.compress(data), "not a kind of recording this package reads \\(.gz\\)"),
+        "run": (data, "not a kind of recording this package reads \\(no suffix\\)"),
+    }
+    for name, (content, says) in broken.items():
+        (tmp_path / name).write_bytes(content)
+        with pytest.raises(RecordingFileError, match=f"^{tmp_path / name}: {says}"):
+            read_recording(tmp_path / name, rate_hz=50.0, note=None)
+
+
+def test_folders_list_compressed_tables_and_process_names_their_outputs_without_suffixes(tmp_path: Path) -> None:
+    folder = tmp_path / "published"
+    folder.mkdir()
+    states = joint_states(N, rate_hz=50.0)
+    data = write_baxter_export(tmp_path / "plain.csv", states).read_bytes()
+    (folder / "one.csv.gz").write_bytes(gzip.compress(data))
+    (folder / "two.txt.xz").write_bytes(lzma.compress(data))
+    (folder / "readme.md").write_text("no recording\n")
+    (folder / "all.zip").write_bytes(b"PK\x05\x06" + bytes(18))
+    assert expand_inputs([folder]) == [folder / "one.csv.gz", folder / "two.txt.xz"]
+    out = tmp_path / "out"
+    done = run_cli("process", folder, "--arm", "left", "--rate-hz", "50", "--out", out, "--format", "csv")
+    assert done.returncode == 0, done.stderr
+    assert listing(out) == ["one.csv", "two.csv"]
+    line = the_error(run_cli("process", folder / "all.zip", "--arm", "left", "--out", tmp_path / "zip.csv"))
+    assert f"{folder / 'all.zip'}: not a kind of recording this package reads (.zip)" in line
+    assert not (tmp_path / "zip.csv").exists()
