@@ -36,7 +36,7 @@ from baxter_dynamics_ros.errors import RecordingFileError
 
 from .bag_io import TopicData, joint_state_recording
 from .serialized_joint_states import JointStateBlock
-from .text_files import UNREADABLE, open_text, unreadable_reason
+from .text_files import UNREADABLE, first_line, open_text, unreadable_reason
 
 __all__ = ["is_rostopic_table", "read_rostopic_recording"]
 
@@ -44,8 +44,8 @@ __all__ = ["is_rostopic_table", "read_rostopic_recording"]
 HEADER_START = "%time,"
 NAMES_FIELD = "field.name0"
 STAMP_FIELD = "field.header.stamp"
-#: Characters read to recognise the layout (a header of a few hundred joints fits).
-SNIFF_CHARACTERS = 65536
+#: Bytes read to recognise the layout (a header of a few hundred joints fits).
+SNIFF_BYTES = 65536
 #: Rows decoded at a time.
 CHUNK_ROWS = 8192
 #: A header field of an array's element (``field.position3``): its array is the name without the index.
@@ -54,12 +54,8 @@ _ARRAY_FIELD = re.compile(r"\d+$")
 
 def is_rostopic_table(path: str | os.PathLike[str]) -> bool:
     """Whether ``path`` is a file whose first line is the header of ``rostopic echo -p`` joint states."""
-    try:
-        with open_text(path) as f:
-            first = f.readline(SNIFF_CHARACTERS)
-    except (*UNREADABLE, UnicodeDecodeError):
-        return False
-    return _header_fields(first) is not None
+    first = first_line(path, SNIFF_BYTES)
+    return first is not None and _header_fields(first) is not None
 
 
 def _header_fields(line: str) -> list[str] | None:

@@ -17,7 +17,7 @@ from typing import TextIO
 
 from baxter_dynamics_ros.errors import RecordingFileError
 
-__all__ = ["COMPRESSION_SUFFIXES", "TEXT_SUFFIXES", "UNREADABLE", "kind_suffix", "open_text", "read_text", "stem", "unreadable_reason"]
+__all__ = ["COMPRESSION_SUFFIXES", "TEXT_SUFFIXES", "UNREADABLE", "first_line", "kind_suffix", "open_text", "read_text", "stem", "unreadable_reason"]
 
 #: Suffixes of text tables.
 TEXT_SUFFIXES = (".csv", ".txt", ".tsv", ".dat")
@@ -59,6 +59,18 @@ def open_text(path: str | os.PathLike[str]) -> TextIO:
     if not compression:
         return open(path, encoding="utf-8-sig")
     return _OPENERS[compression](path, "rt", encoding="utf-8-sig")
+
+
+def first_line(path: str | os.PathLike[str], limit: int) -> str | None:
+    """The first line of a text table (within its first ``limit`` bytes, decompressed; line end
+    dropped), None where the file cannot be read or that line is no UTF-8 text: what comes after it
+    is not looked at."""
+    compression = _split(path)[2]
+    try:
+        with (_OPENERS[compression](path, "rb") if compression else open(path, "rb")) as f:
+            return f.read(limit).split(b"\n", 1)[0].rstrip(b"\r").decode("utf-8-sig")
+    except (*UNREADABLE, UnicodeDecodeError):
+        return None
 
 
 def read_text(path: str | os.PathLike[str]) -> str:
