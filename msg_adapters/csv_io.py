@@ -2,7 +2,9 @@
 
 Two column layouts are read; joints are matched by name, columns may come in any order and extra
 columns are ignored. A text table's fields are separated by commas, semicolons or whitespace (tabs
-too), as its header line's are; it may be compressed whole (:mod:`msg_adapters.text_files`).
+too), as its header line's are; it may be compressed whole (:mod:`msg_adapters.text_files`), and
+begin with comment lines (``#``), the last of them the header where data rows follow it
+(``numpy.savetxt``'s ``# ang_s0 …``).
 
 - **Baxter export** (the layout of the real recordings in ``../shared/data/baxter_real``):
   whitespace-separated, one header line, columns ``ang_<joint>`` (rad), ``vel_<joint>`` (rad/s),
@@ -34,6 +36,7 @@ Written by :func:`write_processed_table`: ``stamp_ns``, ``time_s`` (s since the 
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -67,6 +70,27 @@ def _refuse_duplicates(path: Path, names: Sequence[str]) -> None:
         raise RecordingFileError(f"{path}: column {', '.join(twice)} appears more than once in the header; keep one")
 
 
+def _header_and_rows(lines: Sequence[str]) -> tuple[str, list[str]]:
+    """A text table's header line and its non-blank data rows. Lines that start with ``#`` before
+    any other are comments, but the last of them is the header when a row of numbers follows it:
+    the header as ``numpy.savetxt`` writes it (``# ang_s0 ang_s1 …``)."""
+    k = next((i for i, line in enumerate(lines) if not line.lstrip().startswith("#")), len(lines))
+    if 0 < k < len(lines) and _is_numbers(lines[k]):
+        header, body = lines[k - 1].lstrip()[1:], lines[k:]
+    else:
+        header, body = (lines[k], lines[k + 1 :]) if k < len(lines) else ("", [])
+    return header, [line for line in body if line.strip()]
+
+
+def _is_numbers(line: str) -> bool:
+    """Whether every field of a line (separated by commas, semicolons or whitespace) is a number."""
+    try:
+        [float(field) for field in re.split(r"[,;\s]+", line.strip())]
+    except ValueError:
+        return False
+    return True
+
+
 def _read_columns(path: Path) -> dict[str, np.ndarray]:
     """Every column of a text table (comma, semicolon or whitespace separated; compressed or not:
     :mod:`msg_adapters.text_files`) or a Parquet file, by header name; a name given twice is refused."""
@@ -93,14 +117,13 @@ def _read_columns(path: Path) -> dict[str, np.ndarray]:
             except (TypeError, ValueError) as err:
                 raise RecordingFileError(f"{path}: column {name} does not hold numbers ({err})") from err
         return columns
-    lines = read_text(path).splitlines()
-    if not lines or not lines[0].strip():
+    header, rows = _header_and_rows(read_text(path).splitlines())
+    if not header.strip():
         raise RecordingFileError(f"{path}: empty file, expected a header line of column names")
-    rows = [line for line in lines[1:] if line.strip()]
     if not rows:
         raise RecordingFileError(f"{path}: no data rows under the header line")
-    delimiter = next((d for d in (",", ";") if d in lines[0]), None)  # else whitespace (tabs too)
-    names = [n.strip() for n in lines[0].split(delimiter)]
+    delimiter = next((d for d in (",", ";") if d in header), None)  # else whitespace (tabs too)
+    names = [n.strip() for n in header.split(delimiter)]
     _refuse_duplicates(path, names)
     try:
         values = np.loadtxt(rows, delimiter=delimiter, ndmin=2, dtype=np.float64, comments=None)

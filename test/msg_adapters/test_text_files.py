@@ -1,6 +1,7 @@
-"""Text tables as datasets publish them (msg_adapters/text_files.py): compressed whole with the
-standard library's gzip, bz2 and lzma, other separators, a byte-order mark, suffixes in capitals; and
-files of kinds no reader knows, refused naming the kinds."""
+"""Text tables as datasets publish them (msg_adapters/text_files.py, csv_io.py): compressed whole
+with the standard library's gzip, bz2 and lzma, other separators, a byte-order mark, comment lines and
+numpy.savetxt's header, suffixes in capitals; and files of kinds no reader knows, refused naming the
+kinds."""
 
 from __future__ import annotations
 
@@ -57,6 +58,21 @@ def test_semicolons_tabs_and_a_byte_order_mark_are_read_as_the_header_separates(
     for name, body in {"semi.csv": text.replace(" ", ";"), "tabs.tsv": text.replace(" ", "\t"), "bom.csv": "\ufeff" + text}.items():
         (tmp_path / name).write_text(body, encoding="utf-8")
         assert_left_arm(read_recording(tmp_path / name, rate_hz=50.0, note=None), states)
+
+
+def test_comment_lines_are_passed_over_and_numpy_savetxt_s_header_is_read(tmp_path: Path) -> None:
+    states = joint_states(N, rate_hz=50.0)
+    q, qd, tau = columns(states, arm_joint_names("left"))
+    header = " ".join(f"{p}_{j}" for p in ("ang", "vel", "torq") for j in arm_joint_names("left"))
+    np.savetxt(tmp_path / "savetxt.txt", np.hstack([q, qd, tau]), header=f"recorded on a Baxter\n{header}", fmt="%.17g")
+    assert (tmp_path / "savetxt.txt").read_text().startswith("# recorded on a Baxter\n# ang_left_s0 ")
+    assert_left_arm(read_recording(tmp_path / "savetxt.txt", rate_hz=50.0, note=None), states)
+    text = write_baxter_export(tmp_path / "plain.csv", states).read_text()
+    (tmp_path / "preamble.csv").write_text("# a note\n#\n" + text)  # comments, then the header as a line of its own
+    assert_left_arm(read_recording(tmp_path / "preamble.csv", rate_hz=50.0, note=None), states)
+    (tmp_path / "comments.csv").write_text("# a note\n# another\n")
+    with pytest.raises(RecordingFileError, match="empty file, expected a header line"):
+        read_recording(tmp_path / "comments.csv", rate_hz=50.0, note=None)
 
 
 def test_a_compressed_rostopic_table_is_recognised(tmp_path: Path) -> None:
