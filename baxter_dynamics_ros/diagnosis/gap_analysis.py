@@ -19,7 +19,9 @@ Several recordings are summarised without holding them together: each is reduced
 nothing is filtered across the seam of two recordings), the sums are added in the recordings'
 order and finished by :func:`gap_summary`. The angle bins' edges are the quantiles of q over all
 recordings, found exactly from per-recording histograms (:func:`angle_histogram`) and the values
-in the few bins that hold a quantile (:func:`values_in_bins`, :func:`quantile_edges`).
+in the few bins that hold a quantile (:func:`values_in_bins`, :func:`quantile_edges`). The same
+histograms say what range of each joint the training recordings cover and how much of other data
+lies outside it (:func:`angle_span`, :func:`share_outside`): there a fit extrapolates.
 """
 
 from __future__ import annotations
@@ -33,8 +35,8 @@ from ..core.acceleration import zero_phase_lowpass
 from ..core.joints import S1
 
 __all__ = [
-    "Band", "GapOptions", "GapSums", "GapSummary", "angle_histogram", "gap_sums", "gap_summary", "quantile_edges", "summarise_gap",
-    "values_in_bins", "wanted_bins",
+    "Band", "GapOptions", "GapSums", "GapSummary", "angle_histogram", "angle_span", "gap_sums", "gap_summary", "quantile_edges",
+    "share_outside", "summarise_gap", "values_in_bins", "wanted_bins",
 ]
 
 
@@ -259,6 +261,30 @@ def angle_histogram(q: np.ndarray) -> np.ndarray:
         for j in range(q.shape[1]):
             out[r, j] = np.bincount(bins[:, j], minlength=HISTOGRAM_BINS)
     return out
+
+
+def angle_span(histogram: np.ndarray) -> np.ndarray:
+    """(2, 7) rad: per joint, the lower edge of the lowest and the upper edge of the highest bin of
+    its own angle that a histogram (:func:`angle_histogram`, or several added) holds samples in: the
+    range its recordings cover, to a bin (4π / HISTOGRAM_BINS, 3 mrad)."""
+    lo, hi = HISTOGRAM_RANGE_RAD
+    width = (hi - lo) / HISTOGRAM_BINS
+    counts = histogram[0]
+    if not np.all(counts.any(axis=1)):
+        raise ValueError("an empty histogram covers no range")
+    first = np.argmax(counts > 0, axis=1)
+    last = HISTOGRAM_BINS - 1 - np.argmax(counts[:, ::-1] > 0, axis=1)
+    return np.stack([lo + first * width, lo + (last + 1) * width])
+
+
+def share_outside(histogram: np.ndarray, span: np.ndarray) -> np.ndarray:
+    """(7,) per joint, the share of a histogram's samples whose own angle lies in bins wholly outside
+    ``span`` (:func:`angle_span` of other recordings): how much of them a fit on those extrapolates to."""
+    lo, hi = HISTOGRAM_RANGE_RAD
+    edges = lo + np.arange(HISTOGRAM_BINS + 1) * ((hi - lo) / HISTOGRAM_BINS)
+    counts = histogram[0]
+    outside = (edges[None, 1:] <= span[0][:, None] + 1e-12) | (edges[None, :-1] >= span[1][:, None] - 1e-12)
+    return (counts * outside).sum(axis=1) / counts.sum(axis=1)
 
 
 def _ranks(samples: int, bins: int) -> np.ndarray:

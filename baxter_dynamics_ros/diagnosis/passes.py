@@ -5,8 +5,8 @@ recording to what the procedure needs and lets it go, so that memory is bounded 
 plus statistics, whatever the number of files; they are module-level (picklable) so that worker
 processes or a cluster can run them (:data:`~baxter_dynamics_ros.diagnosis.sources.Mapper`).
 
-1. :func:`screen`: the checks of one recording, the training files' cut-off scores, the test
-   files' angle histograms;
+1. :func:`screen`: the checks of one recording, its angle histogram, the training files' cut-off
+   scores;
 2. :func:`reduce`: at the chosen cut-offs, the sufficient statistics per block (and the test files'
    angle values near the quantiles of the gap summary's bins);
 3. :func:`test_figures`: on a test file with the selected effects fitted, the gap summary's sums and
@@ -72,24 +72,25 @@ class Screening:
     """What the first pass keeps of one recording.
 
     samples, span_s (s), rate_hz (Hz): its size; scores: a training file's
-    :func:`~baxter_dynamics_ros.diagnosis.statistics.cutoff_scores`; histogram: a test file's
-    :func:`~baxter_dynamics_ros.diagnosis.gap_analysis.angle_histogram`.
+    :func:`~baxter_dynamics_ros.diagnosis.statistics.cutoff_scores`; histogram: its
+    :func:`~baxter_dynamics_ros.diagnosis.gap_analysis.angle_histogram` (a test file's bins the gap's
+    angle regimes; every file's, the range the training data cover).
     """
 
     samples: int
     span_s: float
     rate_hz: float
     scores: np.ndarray | None
-    histogram: np.ndarray | None
+    histogram: np.ndarray
 
 
 def screen(arm: ArmModel, what: str, source: Source) -> Screening:
-    """Pass 1 on one source: checked (:func:`check_recording`), then scored ("training") or binned ("test")."""
+    """Pass 1 on one source: checked (:func:`check_recording`), binned, and scored ("training")."""
     rec = source.read()
     check_recording(arm, source.label, rec, what)
     training = what == "training"
     return Screening(
-        len(rec), rec.span_s, rec.rate_hz, cutoff_scores(arm, rec) if training else None, None if training else angle_histogram(rec.q)
+        len(rec), rec.span_s, rec.rate_hz, cutoff_scores(arm, rec) if training else None, angle_histogram(rec.q)
     )
 
 

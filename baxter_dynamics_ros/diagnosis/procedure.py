@@ -61,7 +61,7 @@ from ..core.recording import MIN_FIT_S, Recording, require_total_span
 from ..errors import DiagnosisError, RecordingError
 from .attribution import Scoring, add_shares_and_steps
 from .fit import MAX_OFFSET_DRIFT_NM, Fit, Model, Term
-from .gap_analysis import GapSummary, gap_summary, quantile_edges, wanted_bins
+from .gap_analysis import GapSummary, angle_span, gap_summary, quantile_edges, share_outside, wanted_bins
 from .inertial_report import inertial_params, inertial_quantities
 from .passes import Reduction, Screening, TestFigures, reduce, screen, test_figures
 from .result import DiagnosisResult, EffectReport, cutoff_text, hidden_torque, joint_list, verdict_of
@@ -154,6 +154,15 @@ def diagnose(
     cutoffs = choose_cutoff([s.scores for s in train_screens], min(s.rate_hz for s in screened))
     histogram = sum(s.histogram for s in test_screens)
     wanted = wanted_bins(histogram)
+    span = angle_span(sum(s.histogram for s in train_screens))
+    folds_outside = (
+        {
+            source.label: share_outside(own.histogram, angle_span(sum(o.histogram for o in train_screens if o is not own)))
+            for source, own in zip(train_sources, train_screens)
+        }
+        if len(train_sources) > 1
+        else {}
+    )
     step()
 
     jobs = [(BLOCKS_PER_RECORDING, None, s) for s in train_sources] + [(1, wanted, s) for s in test_sources]
@@ -208,7 +217,21 @@ def diagnose(
         gap_filtered=gap_filtered,
         search=selection.moves,
         test_series=series,
+        training_span_rad=span,
+        test_outside=share_outside(histogram, span),
+        folds_outside=folds_outside,
+        angle_free=_angle_free(arm),
     )
+
+
+def _angle_free(arm: ArmModel) -> tuple[bool, ...]:
+    """(7,) per joint, whether no torque of the arm depends on its angle (on Baxter s0, whose axis
+    is along gravity: turning it turns the whole arm about the vertical), from the model at random
+    states with the angle changed by 1 rad."""
+    rng = np.random.default_rng(0)
+    q, qd, qdd = rng.uniform(-1.0, 1.0, (3, 8, N))
+    tau = arm.inverse_dynamics(q, qd, qdd)
+    return tuple(bool(np.allclose(arm.inverse_dynamics(q + np.eye(N)[j], qd, qdd), tau, rtol=1e-9, atol=1e-9)) for j in range(N))
 
 
 def _as_sources(items: Sequence[Source | tuple[str, Recording]]) -> list[Source]:

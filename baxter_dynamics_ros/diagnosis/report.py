@@ -238,6 +238,15 @@ def _html(result: DiagnosisResult, plots: dict[str, Path]) -> str:
             cells.append("" if v is None else f"{v['verdict']} ({v['rms_without']:.3f} → {v['rms_with']:.3f})")
         verdict_rows.append([e.name] + cells)
     verdicts = _table(["effect (held-out RMS without → with it)", *joints], verdict_rows)
+    lo, hi = result.training_span_rad
+    coverage = _table(
+        ["", *joints],
+        [
+            ["training data [rad]", *(f"{a:+.2f}…{b:+.2f}" for a, b in zip(lo, hi))],
+            ["test samples outside it", *(f"{v:.0%}" + (" (no torque depends on it)" if free else "") for v, free in zip(result.test_outside, result.angle_free))],
+            *([f"{Path(label).name} (held out in cross-validation) outside the other training data", *(f"{v:.0%}" for v in share)] for label, share in result.folds_outside.items()),
+        ],
+    )
     style = (
         "body{font-family:sans-serif;max-width:1300px;margin:2em auto;}table{border-collapse:collapse;margin:1em 0;font-size:90%}"
         "td,th{border:1px solid #bbb;padding:3px 6px;text-align:right}td:nth-child(2),th{text-align:left}img{max-width:100%}"
@@ -277,6 +286,9 @@ fewer than {STABLE_FRACTION:.0%} is <i>uncertain</i>.</p>
 {_drift_section(result, joints)}
 <h2>How far it shrinks (held-out test data)</h2>
 {shrink}
+<h3>The range of each joint the fit's data cover</h3>
+<p>Where held-out samples lie outside the angles of the data fitted on, their figures measure how the effects extrapolate.</p>
+{coverage}
 <h3>Did each effect help on the test data?</h3>
 <p>Per joint it acts on: the held-out RMS of the selected set without that effect and with it (both fitted on the training data only).</p>
 {verdicts}

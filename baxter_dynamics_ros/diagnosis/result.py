@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -17,12 +18,15 @@ from ..core.effects import Effect
 from .fit import MAX_OFFSET_DRIFT_NM
 from .gap_analysis import GapSummary
 
-__all__ = ["STABLE_FRACTION", "VERDICT_TOLERANCE", "DiagnosisResult", "EffectReport", "cutoff_text", "hidden_torque", "joint_list", "verdict_of"]
+__all__ = ["EXTRAPOLATION_SHARE", "STABLE_FRACTION", "VERDICT_TOLERANCE", "DiagnosisResult", "EffectReport", "cutoff_text", "hidden_torque", "joint_list", "verdict_of"]
 
 #: Effects chosen in fewer than this fraction of the cross-validation folds are uncertain.
 STABLE_FRACTION = 0.75
 #: A joint's held-out RMS that changes by less than this fraction counts as unchanged.
 VERDICT_TOLERANCE = 0.01
+#: Held-out data with more than this share of its samples outside the range the fit's data cover
+#: at a joint are said to measure extrapolation there.
+EXTRAPOLATION_SHARE = 0.1
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -109,6 +113,16 @@ class DiagnosisResult:
     test_series: dict[str, np.ndarray] = field(repr=False)
     #: recordings found but too short to use (label: why), left out before the diagnosis
     passed_over: dict[str, str] = field(default_factory=dict)
+    #: (2, 7) rad: per joint the lowest and highest angle of the training data (to 3 mrad)
+    training_span_rad: np.ndarray
+    #: (7,) per joint the share of the test samples outside training_span_rad
+    test_outside: np.ndarray
+    #: leave-one-recording-out only: per training recording, (7,) the share of its samples outside
+    #: the range of the other training recordings (what its fold extrapolates to)
+    folds_outside: dict[str, np.ndarray] = field(default_factory=dict)
+    #: (7,) per joint, whether no torque of the arm depends on its angle (s0 on Baxter): its range
+    #: covered does not matter, and no extrapolation is said there
+    angle_free: tuple[bool, ...] = (False,) * 7
 
     def selected(self) -> tuple[EffectReport, ...]:
         return tuple(e for e in self.effects if e.selected)
@@ -144,6 +158,31 @@ class DiagnosisResult:
             out.append(f"Uncertain at some joints (chosen there in fewer than {STABLE_FRACTION:.0%} of the folds): " + "; ".join(partly) + ".")
         if self.folds <= 2:
             out.append(f"Only {self.folds} cross-validation folds: a weak vote; more training recordings would make the selection firmer.")
+        out += self.extrapolation_warnings()
+        return out
+
+    def extrapolation_warnings(self) -> list[str]:
+        """Where the held-out data, or a cross-validation fold's held-out recording, lie outside the
+        range of the data fitted on by more than EXTRAPOLATION_SHARE of their samples (not at a joint
+        whose angle no torque depends on)."""
+        short = [n.split("_", 1)[-1] for n in self.joint_names]
+        out = []
+        far = [k for k, share in enumerate(self.test_outside) if share > EXTRAPOLATION_SHARE and not self.angle_free[k]]
+        if far:
+            where = ", ".join(f"{short[k]} ({self.test_outside[k]:.0%}; training {self.training_span_rad[0, k]:+.2f}…{self.training_span_rad[1, k]:+.2f} rad)" for k in far)
+            out.append(
+                f"The test data leave the range of the training data at {where}: the held-out figures there measure how the fitted effects extrapolate."
+            )
+        folds = [
+            f"{Path(label).name} at " + ", ".join(f"{short[k]} ({share[k]:.0%})" for k in far_k)
+            for label, share in self.folds_outside.items()
+            if (far_k := [k for k, v in enumerate(share) if v > EXTRAPOLATION_SHARE and not self.angle_free[k]])
+        ]
+        if folds:
+            out.append(
+                "Cross-validation extrapolates: held out, " + "; ".join(folds) + " lie outside the other training recordings' range, "
+                "so the folds judge the effects at those joints by how they carry beyond the data they were fitted on."
+            )
         return out
 
     def to_dict(self) -> dict:
@@ -197,6 +236,12 @@ class DiagnosisResult:
             "final": {"test_rms": rms(self.final_test_rms)},
             "verdict": {"worse_than_denoised": list(self.worse_joints), "warnings": self.warnings()},
             "search": list(self.search),
+            "coverage": {
+                "training_range_rad": {n: [round(float(lo), 6), round(float(hi), 6)] for n, lo, hi in zip(self.joint_names, *self.training_span_rad)},
+                "test_outside_share": dict(zip(self.joint_names, rms(self.test_outside))),
+                "folds_outside_share": {label: dict(zip(self.joint_names, rms(share))) for label, share in self.folds_outside.items()},
+                "angle_free": [n for n, free in zip(self.joint_names, self.angle_free) if free],
+            },
             "gap": self.gap.to_dict(),
             "gap_filtered_q_ddot": self.gap_filtered.to_dict(),
         }

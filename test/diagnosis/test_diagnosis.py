@@ -28,6 +28,7 @@ from baxter_dynamics_ros.core.recording import Recording
 from baxter_dynamics_ros.diagnosis.inertial_fit import COM_BOX_M, MASS_RANGE, PAYLOAD_COM_BOX_M, PAYLOAD_MASS_KG
 from baxter_dynamics_ros.diagnosis.procedure import CANDIDATE_NAMES, diagnose
 from baxter_dynamics_ros.diagnosis.report import effects_yaml
+from baxter_dynamics_ros.diagnosis.result import EXTRAPOLATION_SHARE
 from baxter_dynamics_ros.diagnosis.statistics import CUTOFF_GRID_HZ
 from baxter_dynamics_ros.diagnosis.validation import (
     HARD,
@@ -128,6 +129,35 @@ def test_real_robot_gap_is_the_s1_spring(real_recordings, held_out: int) -> None
     # The diagnosis fits and measures a delay to first order (−d τ̇); effects.yaml means the shift
     # itself, which here fits up to 4 % better (0.361 against 0.375 N·m² with the sin_XYZ_12s file held out).
     np.testing.assert_allclose(mse, float(np.sum(result.final_test_rms**2)), rtol=0.05)
+    assert_coverage_is_the_recordings(result, train, [real_recordings[held_out]])
+
+
+def assert_coverage_is_the_recordings(result, train, test) -> None:
+    """The range covered and the shares outside it, against the recordings' own angles (to a bin of
+    4π/4096 rad), and the extrapolation warnings where a share exceeds EXTRAPOLATION_SHARE, s0 (whose
+    angle changes no torque: its axis is along gravity) excepted."""
+    width = 4 * np.pi / 4096
+    low = np.min([rec.q.min(axis=0) for _, rec in train], axis=0)
+    high = np.max([rec.q.max(axis=0) for _, rec in train], axis=0)
+    assert np.all(result.training_span_rad[0] <= low) and np.all(low < result.training_span_rad[0] + width)
+    assert np.all(result.training_span_rad[1] > high) and np.all(high >= result.training_span_rad[1] - width)
+    q = np.concatenate([rec.q for _, rec in test])
+    strict, loose = np.mean((q < low) | (q > high), axis=0), np.mean((q < low - width) | (q > high + width), axis=0)
+    assert np.all(loose <= result.test_outside) and np.all(result.test_outside <= strict)
+    assert set(result.folds_outside) == {label for label, _ in train}
+    for label, rec in train:
+        others = [r.q for other, r in train if other != label]
+        lo, hi = np.min([o.min(axis=0) for o in others], axis=0), np.max([o.max(axis=0) for o in others], axis=0)
+        share = result.folds_outside[label]
+        assert np.all(np.mean((rec.q < lo - width) | (rec.q > hi + width), axis=0) <= share)
+        assert np.all(share <= np.mean((rec.q < lo) | (rec.q > hi), axis=0))
+    q = np.random.default_rng(3).uniform(-1.0, 1.0, (5, 7))
+    assert np.allclose(load_arm_model(result.arm_side).gravity(q)[:, 0], 0.0)  # s0's axis is vertical
+    assert result.angle_free == (True, False, False, False, False, False, False)
+    said = " ".join(result.extrapolation_warnings())
+    far = [n.split("_", 1)[-1] for n, v in zip(result.joint_names[1:], result.test_outside[1:]) if v > EXTRAPOLATION_SHARE]
+    assert ("The test data leave the range of the training data at" in said) == bool(far)
+    assert all(f"{j} (" in said for j in far) and not re.search(r"\bs0 \(", said)
 
 
 @needs_real

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from baxter_dynamics_ros.diagnosis.gap_analysis import GapOptions, summarise_gap
+from baxter_dynamics_ros.diagnosis.gap_analysis import HISTOGRAM_BINS, GapOptions, angle_histogram, angle_span, share_outside, summarise_gap
 
 RATE_HZ = 100.0
 N_SAMPLES = 3000
@@ -126,3 +126,26 @@ def test_systematic_part_and_noise_split_at_the_cutoff() -> None:
     s = summarise_gap(JOINTS, residual, q, q, q, RATE_HZ)
     np.testing.assert_allclose(s.systematic_rms, 0.8 / np.sqrt(2), rtol=0.02)
     np.testing.assert_allclose(s.noise_rms, 0.3 / np.sqrt(2), rtol=0.02)
+
+
+def test_the_range_covered_and_the_share_outside_it_agree_with_the_angles_to_a_bin() -> None:
+    """angle_span brackets each joint's lowest and highest angle within one bin (3 mrad); the share
+    outside it lies between the share strictly outside the training angles and the share outside them
+    widened by a bin, both counted here from the angles themselves."""
+    width = 4 * np.pi / HISTOGRAM_BINS
+    rng = np.random.default_rng(11)
+    train = [rng.uniform(-0.8, 0.3, (500, 7)), rng.uniform(-0.2, 0.9, (400, 7))]
+    test = rng.uniform(-1.2, 1.0, (700, 7))
+    test[:50, 3] = train[0][:50, 3]  # samples on the training data's own values count as inside
+    span = angle_span(angle_histogram(train[0]) + angle_histogram(train[1]))
+    low, high = np.min([t.min(axis=0) for t in train], axis=0), np.max([t.max(axis=0) for t in train], axis=0)
+    assert np.all(span[0] <= low) and np.all(low < span[0] + width)
+    assert np.all(span[1] > high) and np.all(high >= span[1] - width)
+    share = share_outside(angle_histogram(test), span)
+    strict = np.mean((test < low) | (test > high), axis=0)
+    loose = np.mean((test < low - width) | (test > high + width), axis=0)
+    assert np.all(loose <= share) and np.all(share <= strict), (loose, share, strict)
+    assert 0.15 < share.min() and share.max() < 0.3  # about (0.4 + 0.1) / 2.2 of -1.2…1.0 lies outside -0.8…0.9
+    np.testing.assert_array_equal(share_outside(angle_histogram(train[0]), span), 0.0)
+    with pytest.raises(ValueError, match="covers no range"):
+        angle_span(np.zeros((2, 7, HISTOGRAM_BINS), dtype=np.int64))
