@@ -75,6 +75,8 @@ class Rotation:
     plain_values: dict[str, tuple[float, ...]] = field(default_factory=dict)
     #: (7,) N·m, the plain fit never taking a move that leaves values no physical effect has
     plain_physical: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: (7,) the share of the test samples outside the range of the training data (diagnose's ``coverage``)
+    test_outside: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 def datasets(root: Path = DATA) -> list[Path]:
@@ -131,6 +133,7 @@ def compare_dataset(
                 diagnose_cutoff_hz=tuple(float(c) for c in report["q_ddot_cutoff_hz"].values()),
                 plain_values={label: plain.joint_values(label) for label in plain.selected if "@" in label},
                 plain_physical=plain_diagnosis(train, [stats[k]], physical=True).test_rms,
+                test_outside=np.array(list(report["coverage"]["test_outside_share"].values()), dtype=float),
             )
             without = {}
             for _, _, joint, against in misses([rotation]):
@@ -225,6 +228,10 @@ def page(rotations: Sequence[Rotation], elapsed_s: float, command: str, plain_cu
         "at each joint's own cut-off, chosen on the training data, the table's last row);",
         "- **diagnose**: `baxter-dynamics diagnose --train … --test … --arm left --jobs 1` (`final.test_rms`).",
         "",
+        "The tables' last row: the share of the test recording's samples whose joint angle lies outside the range of the "
+        "training recordings (`diagnose`'s `coverage.test_outside_share`); there every fit extrapolates (at s0, whose axis "
+        "is vertical, the angle changes no torque).",
+        "",
         "The plain fit is a yardstick of held-out error only, not of attribution: fitted freely, `inertial_error` can "
         "stand in for the s1 spring (../shared/DIAGNOSIS-NOTES.md), and its selections below are what paid on "
         "leave-one-recording-out error, nothing more.",
@@ -248,7 +255,8 @@ def page(rotations: Sequence[Rotation], elapsed_s: float, command: str, plain_cu
                       _row("plain", r.plain), _row("plain, physical values only", r.plain_physical), _row("rigid (denoised)", r.rigid),
                       _row("diagnose", r.diagnose),
                       _row("ratio diagnose/plain", r.diagnose / r.plain),
-                      "| diagnose's q̇ cut-off [Hz] | " + " | ".join(f"{c:g}" for c in r.diagnose_cutoff_hz) + " |", "",
+                      "| diagnose's q̇ cut-off [Hz] | " + " | ".join(f"{c:g}" for c in r.diagnose_cutoff_hz) + " |",
+                      "| test samples outside the training data's range | " + " | ".join(f"{v:.0%}" for v in r.test_outside) + " |", "",
                       f"Plain fit selected: {', '.join(r.plain_selected) or 'nothing'}.", "",
                       f"`diagnose` selected: {', '.join(r.diagnose_selected) or 'nothing'}.", ""]
     found = misses(rotations)
