@@ -119,10 +119,10 @@ class DiagnosisResult:
     test_outside: np.ndarray
     #: leave-one-recording-out only: per training recording, (7,) the share of its samples outside
     #: the range of the other training recordings (what its fold extrapolates to)
-    folds_outside: dict[str, np.ndarray] = field(default_factory=dict)
+    folds_outside: dict[str, np.ndarray]
     #: (7,) per joint, whether no torque of the arm depends on its angle (s0 on Baxter): its range
     #: covered does not matter, and no extrapolation is said there
-    angle_free: tuple[bool, ...] = (False,) * 7
+    angle_free: tuple[bool, ...]
 
     def selected(self) -> tuple[EffectReport, ...]:
         return tuple(e for e in self.effects if e.selected)
