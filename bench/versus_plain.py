@@ -1,11 +1,11 @@
 """``diagnose`` against the plain reference fit on every real dataset, every rotation (issue 20 §1).
 
-For each folder of real recordings (default: every folder of CSVs under ``../shared/data``) and each
-rotation — each recording the test once, the others training — this runs
+For each folder of real recordings (default: every folder of recordings under ``../shared/data``, in
+any layout the package reads: :func:`recordings`) and each rotation — each recording the test once, the others training — this runs
 
 - the plain fit of :mod:`bench.plain_fit` (recordings read by the package's reader, the sample rate
   of a table without a time column estimated from position and velocity, as ``diagnose`` does), and
-- ``baxter-dynamics diagnose --train … --test … --out DIR --arm left --force --no-progress --jobs 1``
+- ``baxter-dynamics diagnose --train … --test … --out DIR --arm SIDE --force --no-progress --jobs 1``
   in a subprocess (several rotations at once: ``--procs``; one BLAS thread each), reading ``final.test_rms`` and
   ``denoised.test_rms`` from DIR/diagnosis.json,
 
@@ -37,8 +37,10 @@ from pathlib import Path
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from baxter_dynamics_ros.cli.inputs import expand_inputs
 from baxter_dynamics_ros.core.output_files import check_outputs, staged_outputs
-from baxter_dynamics_ros.errors import BaxterDynamicsError, DiagnosisError, OutputError
+from baxter_dynamics_ros.core.recording import Recording
+from baxter_dynamics_ros.errors import BaxterDynamicsError, DiagnosisError, OutputError, RecordingFileError
 from bench.plain_fit import CUTOFF_HZ, JOINT_SUFFIXES, RecordingStats, UrdfArm, effect_name, physical_levels, plain_diagnosis, recording_stats
 from msg_adapters.recording_files import read_recording
 
@@ -79,12 +81,36 @@ class Rotation:
     test_outside: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
+def recordings(folder: Path) -> list[Path]:
+    """A dataset folder's recordings as the commands list them (:func:`~baxter_dynamics_ros.cli.inputs.expand_inputs`:
+    tables, compressed or not, bags, each part of a MATLAB file), [] for a folder that holds none."""
+    try:
+        return expand_inputs([folder])
+    except RecordingFileError:
+        return []
+
+
 def datasets(root: Path = DATA) -> list[Path]:
-    """The folders under ``root`` that hold CSV recordings, sorted."""
-    return sorted(p for p in root.iterdir() if p.is_dir() and any(p.glob("*.csv"))) if root.is_dir() else []
+    """The folders under ``root`` that hold recordings, sorted."""
+    return sorted(p for p in root.iterdir() if p.is_dir() and recordings(p)) if root.is_dir() else []
 
 
-def run_diagnose(train: Sequence[Path], test: Path, out: Path, arm: str = "left") -> dict:
+def read_side(path: Path, arm: str | None) -> Recording:
+    """One recording of a dataset: of ``arm`` when given; else of the arm its joint names say, or,
+    where they name none (as the other unit's ``ang_s0 …``), of the side its file name says
+    ("left" or "right" in it), as their README tells users; RecordingFileError when neither does."""
+    if arm is not None:
+        return read_recording(path, arm=arm, note=None)
+    try:
+        return read_recording(path, note=None)
+    except RecordingFileError:
+        sides = [side for side in ("left", "right") if side in path.name.lower()]
+        if len(sides) != 1:
+            raise
+        return read_recording(path, arm=sides[0], note=None)
+
+
+def run_diagnose(train: Sequence[Path], test: Path, out: Path, arm: str) -> dict:
     """``baxter-dynamics diagnose`` on one split in a subprocess (one worker); its diagnosis.json.
     Raises DiagnosisError with diagnose's own ERROR line when it fails."""
     exe = Path(sys.executable).with_name("baxter-dynamics")
@@ -99,25 +125,30 @@ def run_diagnose(train: Sequence[Path], test: Path, out: Path, arm: str = "left"
     return json.loads((out / "diagnosis.json").read_text())
 
 
-def compare_dataset(
-    folder: Path, *, arm: str = "left", procs: int = 2, urdf_arm: UrdfArm | None = None, plain_cutoff_hz: float = CUTOFF_HZ,
-) -> list[Rotation]:
-    """Every rotation of the CSV recordings in ``folder``: plain fit here (q̇ low-passed at
-    plain_cutoff_hz), diagnose in ≤ procs subprocesses at once."""
-    files = sorted(folder.glob("*.csv"))
+def compare_dataset(folder: Path, *, arm: str | None = None, procs: int = 2, plain_cutoff_hz: float = CUTOFF_HZ) -> list[Rotation]:
+    """Every rotation of the recordings in ``folder`` (:func:`recordings`; of ``arm``, or as
+    :func:`read_side` finds it): plain fit here (q̇ low-passed at plain_cutoff_hz), diagnose in ≤
+    procs subprocesses at once."""
+    files = recordings(folder)
     if len(files) < 3:
         raise ValueError(f"{folder}: a rotation needs at least 3 recordings (2 to train, 1 to test), found {len(files)}")
-    urdf_arm = urdf_arm or UrdfArm.from_urdf(arm)
     # The plain fit's statistics first: a recording it cannot read, or a cut-off it cannot apply,
     # stops the comparison before any diagnose runs.
     stats: list[RecordingStats] = []
+    sides: set[str] = set()
+    urdf_arms: dict[str, UrdfArm] = {}
     with threadpool_limits(1):
         for f in files:
-            rec = read_recording(f, arm=arm, note=None)  # as diagnose reads it; errors name the file
+            rec = read_side(f, arm)  # as diagnose reads it; errors name the file
+            sides.add(rec.side)
+            urdf_arm = urdf_arms.setdefault(rec.side, UrdfArm.from_urdf(rec.side))
             stats.append(recording_stats(urdf_arm, f.name, rec.q, rec.qd, rec.effort, rec.rate_hz, cutoff_hz=plain_cutoff_hz))
+    if len(sides) != 1:
+        raise ValueError(f"{folder}: recordings of both arms ({', '.join(sorted(sides))}); a dataset's rotations need one arm")
+    (side,) = sides
     with tempfile.TemporaryDirectory(prefix="versus_plain-") as scratch, ThreadPoolExecutor(procs) as pool:
         jobs: list[Future] = [
-            pool.submit(run_diagnose, [f for f in files if f != test], test, Path(scratch) / test.stem, arm) for test in files
+            pool.submit(run_diagnose, [f for f in files if f != test], test, Path(scratch) / str(k), side) for k, test in enumerate(files)
         ]
         out = []
         for k, test in enumerate(files):
@@ -226,7 +257,8 @@ def page(rotations: Sequence[Rotation], elapsed_s: float, command: str, plain_cu
         "or friction at rest (Stribeck's F_s), which `diagnose`'s bounds refuse; for comparison only, not the goal's yardstick;",
         "- **rigid (denoised)**: `diagnose`'s rigid-body model with its filtered q̈ (`denoised.test_rms`; q̇ low-passed "
         "at each joint's own cut-off, chosen on the training data, the table's last row);",
-        "- **diagnose**: `baxter-dynamics diagnose --train … --test … --arm left --jobs 1` (`final.test_rms`).",
+        "- **diagnose**: `baxter-dynamics diagnose --train … --test … --arm SIDE --jobs 1` (`final.test_rms`; SIDE the "
+        "recordings' arm, as their joint names or else their file names say).",
         "",
         "The tables' last row: the share of the test recording's samples whose joint angle lies outside the range of the "
         "training recordings (`diagnose`'s `coverage.test_outside_share`); there every fit extrapolates (at s0, whose axis "
@@ -291,20 +323,20 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--data", type=Path, default=DATA, help="folder of dataset folders (default ../shared/data)")
     parser.add_argument("--out", type=Path, help="Markdown page to write (default: print only the summary)")
     parser.add_argument("--procs", type=int, default=2, help="diagnose subprocesses at once (default 2)")
+    parser.add_argument("--arm", choices=("left", "right"), help="the recordings' arm (default: as their joint names, else their file names, say)")
     parser.add_argument("--plain-cutoff-hz", type=float, default=CUTOFF_HZ,
                         help=f"the plain fit's low-pass of q̇, Hz (default {CUTOFF_HZ:g}; diagnose chooses its own)")
     args = parser.parse_args(argv)
     command = " ".join(["python -m bench.versus_plain", *(sys.argv[1:] if argv is None else argv)])
     folders = datasets(args.data)
     if not folders:
-        print(f"ERROR: no folders of CSV recordings under {args.data}", file=sys.stderr)
+        print(f"ERROR: no folders of recordings under {args.data}", file=sys.stderr)
         return 1
     start = time.perf_counter()
-    urdf_arm = UrdfArm.from_urdf("left")
     try:
         if args.out:
             check_outputs([args.out], replace=True)  # before the comparison: fail fast
-        rotations = [r for folder in folders for r in compare_dataset(folder, procs=args.procs, urdf_arm=urdf_arm, plain_cutoff_hz=args.plain_cutoff_hz)]
+        rotations = [r for folder in folders for r in compare_dataset(folder, arm=args.arm, procs=args.procs, plain_cutoff_hz=args.plain_cutoff_hz)]
     except (ValueError, BaxterDynamicsError) as exc:
         print(f"ERROR: {exc}", file=sys.stderr)
         return 1

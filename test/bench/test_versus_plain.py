@@ -12,6 +12,7 @@ the test fails when one of them changes; regenerate the list with
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -26,13 +27,18 @@ from bench.versus_plain import (
     RIGID_SLACK_NM,
     Rotation,
     compare_dataset,
+    datasets,
     diagnose_says,
     main,
+    read_side,
+    recordings,
     withheld,
 )
 
 DATA = SHARED / "data"
-DATASETS = ("baxter_real", "baxter_other_unit")
+#: The datasets of ../shared/data this branch was measured on (each skipped with its reason when
+#: absent), and any other folder of recordings found there: every real dataset is checked.
+DATASETS = tuple(dict.fromkeys(("baxter_real", "baxter_other_unit", *(p.name for p in datasets(DATA)))))
 
 # Printed by `python -m bench.versus_plain` (measured on this branch; re-measure after changing diagnose).
 KNOWN_MISSES: dict[tuple[str, str, str, str], str] = {
@@ -48,7 +54,7 @@ def _cases() -> list:
     cases = []
     for dataset in DATASETS:
         folder = DATA / dataset
-        files = sorted(folder.glob("*.csv")) if folder.is_dir() else []
+        files = recordings(folder) if folder.is_dir() else []
         if len(files) < 3 or not URDF.is_file():
             cases.append(pytest.param(dataset, "", "", "", id=f"{dataset}-absent", marks=pytest.mark.skip(
                 reason=f"needs ≥ 3 recordings in {folder} and the URDF at {URDF} (../shared beside the checkout)")))
@@ -58,7 +64,7 @@ def _cases() -> list:
                 for against in ("plain", "rigid"):
                     key = (dataset, f.name, joint, against)
                     marks = [pytest.mark.xfail(strict=True, reason=KNOWN_MISSES[key])] if key in KNOWN_MISSES else []
-                    cases.append(pytest.param(*key, id=f"{dataset}-{f.stem}-{joint}-{against}", marks=marks))
+                    cases.append(pytest.param(*key, id=f"{dataset}-{Path(f.name).stem}-{joint}-{against}", marks=marks))
     return cases
 
 
@@ -165,3 +171,56 @@ def test_recordings_diagnose_or_the_reader_refuses_give_one_error_line(tmp_path,
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("ERROR: ") and match in err[0], err
     assert not (tmp_path / "page.md").exists()
+
+
+def _right_arm_states(duration_s: float, seed: int):
+    """Simulated right-arm joint states as Baxter publishes them (both arms, by name)."""
+    from baxter_dynamics_ros.simulation.plant import simulate
+    from baxter_dynamics_ros.simulation.spec import SimulationSpec
+    from msg_adapters.robot_joint_states import robot_joint_states
+
+    result = simulate(SimulationSpec("random", duration_s, 100.0, seed=seed))
+    return robot_joint_states(result.recording(), result.other_q, result.other_effort)
+
+
+def test_a_dataset_in_other_layouts_and_of_the_right_arm_is_compared_as_the_commands_read_it(tmp_path, capsys) -> None:
+    """A folder of a right-arm bag, a compressed table and a table that names no arm (the side in
+    its file name): listed as the commands list recordings, read for the arm the names say, and
+    every rotation compared (diagnose run with --arm right); a table naming no arm and no side in
+    its name is refused, as is a dataset of both arms."""
+    import gzip
+
+    from baxter_dynamics_ros.core.joints import arm_joint_names
+    from baxter_dynamics_ros.errors import RecordingFileError
+    from msg_adapters.recording_files import write_joint_states
+
+    folder = tmp_path / "data" / "lab"
+    folder.mkdir(parents=True)
+    states = [_right_arm_states(14.0, seed) for seed in (1, 2, 3)]
+    write_joint_states(folder / "a.mcap", states[0].stamps_ns, states[0].names, states[0].position, states[0].velocity, states[0].effort)
+    plain = tmp_path / "b.csv"
+    write_joint_states(plain, states[1].stamps_ns, states[1].names, states[1].position, states[1].velocity, states[1].effort)
+    (folder / "b.csv.gz").write_bytes(gzip.compress(plain.read_bytes()))
+    right = [states[2].names.index(n) for n in arm_joint_names("right")]
+    table = np.hstack([states[2].position[:, right], states[2].velocity[:, right], states[2].effort[:, right]])
+    header = " ".join(f"{p}_{j}" for p in ("ang", "vel", "torq") for j in JOINT_SUFFIXES)
+    np.savetxt(folder / "c_right_arm.txt", table, header=header, comments="", fmt="%.17g")
+    (folder / "notes.md").write_text("no recording\n")
+    assert [p.name for p in recordings(folder)] == ["a.mcap", "b.csv.gz", "c_right_arm.txt"]
+    assert datasets(tmp_path / "data") == [folder]
+    assert {read_side(p, None).side for p in recordings(folder)} == {"right"}
+    np.testing.assert_array_equal(read_side(folder / "c_right_arm.txt", None).q, states[2].position[:, right])
+    (tmp_path / "c.txt").write_text((folder / "c_right_arm.txt").read_text())
+    with pytest.raises(RecordingFileError, match="name no arm"):
+        read_side(tmp_path / "c.txt", None)
+    assert read_side(tmp_path / "c.txt", "left").side == "left"
+
+    assert main(["--data", str(tmp_path / "data"), "--out", str(tmp_path / "page.md")]) == 0
+    page = (tmp_path / "page.md").read_text()
+    assert all(f"### Test on `{name}`" in page for name in ("a.mcap", "b.csv.gz", "c_right_arm.txt")), page
+    assert "--arm SIDE" in page and "## `lab`" in page
+    capsys.readouterr()
+    (folder / "c_right_arm.txt").rename(folder / "c_left_arm.txt")
+    assert main(["--data", str(tmp_path / "data")]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "recordings of both arms (left, right)" in err[0], err
