@@ -7,6 +7,9 @@ are being spawned (:func:`signals_deferred`) a signal is acted on once they are,
 signal: stopped in the middle of a spawn, a new process finds the pipe of its start-up data closed
 and prints a traceback of its own after the one ERROR line.
 
+A signal whose exception Python cannot raise where the handler ran (a garbage collector's callback)
+is sent again, so that it is never lost (:func:`_unraisable`).
+
 Nothing happens on import: :func:`install` (called by :mod:`.main`, the command line's entry point)
 puts the handlers in place, so that a module that only spawns workers (:mod:`.workers`) can use
 :func:`signals_deferred` without taking over the signals of the process that imports it.
@@ -32,6 +35,8 @@ _running = False
 _received: int | None = None
 #: Whether a signal is held until the end of a :func:`signals_deferred` block.
 _deferring = False
+#: How long after a signal was lost (:func:`_unraisable`) it is sent again, s.
+RESEND_DELAY_S = 0.01
 
 
 class Terminated(KeyboardInterrupt):
@@ -74,6 +79,23 @@ def _ignore_further() -> None:
 
 def _raise(signum: int) -> None:
     raise Terminated if signum == signal.SIGTERM else KeyboardInterrupt
+
+
+def _unraisable(args: sys.UnraisableHookArgs) -> None:
+    """An exception Python cannot raise where it happened (in a ``__del__``, a weakref's or the
+    garbage collector's callback — a cluster's scheduler keeps one): when it is the signal's, raised
+    by :func:`_on_signal` in such a place, the signal is sent again so that it stops the command at
+    the next chance instead of being lost (the command then ran to its end and wrote its outputs);
+    anything else is shown as Python does."""
+    if _running and _received is not None and isinstance(args.exc_value, KeyboardInterrupt) and threading.current_thread() is threading.main_thread():
+        signal.signal(_received, _on_signal)  # raises it again (ends the process, if the command has ended)
+        # a moment later, from another thread: sent from here, its handler would run here, inside the
+        # hook, and be lost again (should it land in such a place again, it comes back here)
+        again = threading.Timer(RESEND_DELAY_S, os.kill, (os.getpid(), _received))
+        again.daemon = True
+        again.start()
+        return
+    sys.__unraisablehook__(args)
 
 
 @contextmanager
@@ -144,3 +166,4 @@ def install(module_name: str) -> None:
     # and a library thread that fails as the command unwinds after a signal (concurrent.futures' pool
     # manager setting an exception on a future cancelled meanwhile, Python 3.11) prints no traceback
     threading.excepthook = _thread_failed
+    sys.unraisablehook = _unraisable
