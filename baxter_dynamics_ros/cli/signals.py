@@ -37,6 +37,8 @@ _received: int | None = None
 _deferring = False
 #: How long after a signal was lost (:func:`_unraisable`) it is sent again, s.
 RESEND_DELAY_S = 0.01
+#: The exception last raised for a signal (so that only its loss sends the signal again).
+_raised: BaseException | None = None
 
 
 class Terminated(KeyboardInterrupt):
@@ -78,7 +80,9 @@ def _ignore_further() -> None:
 
 
 def _raise(signum: int) -> None:
-    raise Terminated if signum == signal.SIGTERM else KeyboardInterrupt
+    global _raised
+    _raised = Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
+    raise _raised
 
 
 def _unraisable(args: sys.UnraisableHookArgs) -> None:
@@ -87,7 +91,7 @@ def _unraisable(args: sys.UnraisableHookArgs) -> None:
     by :func:`_on_signal` in such a place, the signal is sent again so that it stops the command at
     the next chance instead of being lost (the command then ran to its end and wrote its outputs);
     anything else is shown as Python does."""
-    if _running and _received is not None and isinstance(args.exc_value, KeyboardInterrupt) and threading.current_thread() is threading.main_thread():
+    if _running and _received is not None and args.exc_value is _raised and threading.current_thread() is threading.main_thread():
         signal.signal(_received, _on_signal)  # raises it again (ends the process, if the command has ended)
         # a moment later, from another thread: sent from here, its handler would run here, inside the
         # hook, and be lost again (should it land in such a place again, it comes back here)
