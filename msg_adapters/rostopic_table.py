@@ -36,7 +36,7 @@ from baxter_dynamics_ros.errors import RecordingFileError
 
 from .bag_io import TopicData, joint_state_recording
 from .serialized_joint_states import JointStateBlock
-from .text_files import UNREADABLE, first_line, open_text, unreadable_reason
+from .text_files import first_line, open_text, reading
 
 __all__ = ["is_rostopic_table", "read_rostopic_recording"]
 
@@ -212,44 +212,39 @@ def _topic_data(path: str | os.PathLike[str], note: Callable[[str], None] | None
     path = Path(path)
     unreadable = 0
     names: tuple[str, ...] = ()
-    try:
-        with open_text(path) as f:
-            header = _header_fields(f.readline())
-            if header is None:
-                raise RecordingFileError(
-                    f"{path}: not a table of rostopic echo -p joint states (its header must start {HEADER_START!r} and name {NAMES_FIELD})"
-                )
-            names_at = header.index(NAMES_FIELD)
-            header_names = sum(1 for h in header if h.startswith("field.name"))
-            commas: int | None = None  # in the frame_id, from the first row
-            stamp_at = header.index(STAMP_FIELD) if STAMP_FIELD in header[:names_at] else None
-            rows = _Rows(_Layout.of_header(path, [h for h in header[names_at:] if not h.startswith("field.name")]))
-            for line in f:
-                line = line.rstrip("\r\n,")  # a spreadsheet's re-save may end rows with a comma
-                if not line.strip():
-                    continue
-                fields = line.split(",", names_at)
-                try:
-                    if len(fields) <= names_at:
-                        raise ValueError("too few fields")
-                    time_ns = _nanoseconds(fields[0])
-                    stamp_ns = _nanoseconds(fields[stamp_at]) if stamp_at is not None else 0
-                except ValueError:
-                    unreadable += 1
-                    continue
-                rest = fields[names_at]
-                if commas is None:
-                    commas = _frame_id_commas(rest, header_names, rows.layout)
-                if commas:
-                    rest = rest.split(",", commas)[-1] if rest.count(",") >= commas else ""
-                names, numbers = _split_names(rest, names)
-                rows.add(time_ns, stamp_ns, names, numbers)
-                if len(rows.times_ns) % CHUNK_ROWS == 0:
-                    rows.flush()
-    except UNREADABLE as err:
-        raise RecordingFileError(f"{path}: cannot read the file ({unreadable_reason(err)})") from err
-    except UnicodeDecodeError as err:
-        raise RecordingFileError(f"{path}: not a text table ({err})") from err
+    with reading(path), open_text(path) as f:
+        header = _header_fields(f.readline())
+        if header is None:
+            raise RecordingFileError(
+                f"{path}: not a table of rostopic echo -p joint states (its header must start {HEADER_START!r} and name {NAMES_FIELD})"
+            )
+        names_at = header.index(NAMES_FIELD)
+        header_names = sum(1 for h in header if h.startswith("field.name"))
+        commas: int | None = None  # in the frame_id, from the first row
+        stamp_at = header.index(STAMP_FIELD) if STAMP_FIELD in header[:names_at] else None
+        rows = _Rows(_Layout.of_header(path, [h for h in header[names_at:] if not h.startswith("field.name")]))
+        for line in f:
+            line = line.rstrip("\r\n,")  # a spreadsheet's re-save may end rows with a comma
+            if not line.strip():
+                continue
+            fields = line.split(",", names_at)
+            try:
+                if len(fields) <= names_at:
+                    raise ValueError("too few fields")
+                time_ns = _nanoseconds(fields[0])
+                stamp_ns = _nanoseconds(fields[stamp_at]) if stamp_at is not None else 0
+            except ValueError:
+                unreadable += 1
+                continue
+            rest = fields[names_at]
+            if commas is None:
+                commas = _frame_id_commas(rest, header_names, rows.layout)
+            if commas:
+                rest = rest.split(",", commas)[-1] if rest.count(",") >= commas else ""
+            names, numbers = _split_names(rest, names)
+            rows.add(time_ns, stamp_ns, names, numbers)
+            if len(rows.times_ns) % CHUNK_ROWS == 0:
+                rows.flush()
     rows.flush()
     if not rows.times_ns:
         raise RecordingFileError(f"{path}: no messages under the header line" + f" ({unreadable} rows without a time in ns)" * bool(unreadable))

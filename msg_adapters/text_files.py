@@ -12,12 +12,14 @@ import bz2
 import gzip
 import lzma
 import os
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
-from typing import TextIO
+from typing import IO, TextIO
 
 from baxter_dynamics_ros.errors import RecordingFileError
 
-__all__ = ["COMPRESSION_SUFFIXES", "TEXT_SUFFIXES", "UNREADABLE", "first_line", "kind_suffix", "open_text", "read_text", "stem", "unreadable_reason"]
+__all__ = ["COMPRESSION_SUFFIXES", "TEXT_SUFFIXES", "first_line", "kind_suffix", "open_text", "read_text", "reading", "stem"]
 
 #: Suffixes of text tables.
 TEXT_SUFFIXES = (".csv", ".txt", ".tsv", ".dat")
@@ -26,7 +28,7 @@ _OPENERS = {".gz": gzip.open, ".bz2": bz2.open, ".xz": lzma.open}
 COMPRESSION_SUFFIXES = tuple(_OPENERS)
 #: What opening or reading a text table may raise besides UnicodeDecodeError: the file's own errors,
 #: and a compressed stream's when it is not of its format (gzip, bz2: OSError) or is cut short.
-UNREADABLE = (OSError, EOFError, lzma.LZMAError)
+_UNREADABLE = (OSError, EOFError, lzma.LZMAError)
 
 
 def _split(path: str | os.PathLike[str]) -> tuple[str, str, str]:
@@ -51,44 +53,44 @@ def stem(path: str | os.PathLike[str]) -> str:
     return _split(path)[0]
 
 
+def _opener(path: str | os.PathLike[str]) -> Callable[..., IO]:
+    """The function that opens ``path``: its compression's, or the built-in ``open``."""
+    return _OPENERS.get(_split(path)[2], open)
+
+
 def open_text(path: str | os.PathLike[str]) -> TextIO:
     """``path`` opened to read text: UTF-8, a byte-order mark dropped, decompressed when it is a
-    compressed text table. Opening or reading it raises one of :data:`UNREADABLE` where the file
-    cannot be read or decompressed (corrupt, cut short), UnicodeDecodeError where it is no UTF-8 text."""
-    compression = _split(path)[2]
-    if not compression:
-        return open(path, encoding="utf-8-sig")
-    return _OPENERS[compression](path, "rt", encoding="utf-8-sig")
+    compressed text table; read it inside :func:`reading`, which says in words what goes wrong."""
+    return _opener(path)(path, "rt", encoding="utf-8-sig")
 
 
 def first_line(path: str | os.PathLike[str], limit: int) -> str | None:
     """The first line of a text table (within its first ``limit`` bytes, decompressed; line end
     dropped), None where the file cannot be read or that line is no UTF-8 text: what comes after it
     is not looked at."""
-    compression = _split(path)[2]
     try:
-        with (_OPENERS[compression](path, "rb") if compression else open(path, "rb")) as f:
+        with _opener(path)(path, "rb") as f:
             return f.read(limit).split(b"\n", 1)[0].rstrip(b"\r").decode("utf-8-sig")
-    except (*UNREADABLE, UnicodeDecodeError):
+    except (*_UNREADABLE, UnicodeDecodeError):
         return None
 
 
-def read_text(path: str | os.PathLike[str]) -> str:
-    """The whole text of a text table (as :func:`open_text`); RecordingFileError naming the path
-    when it cannot be read or decompressed, or is no UTF-8 text."""
+@contextmanager
+def reading(path: str | os.PathLike[str]) -> Iterator[None]:
+    """A block that reads the text table at ``path``: the file's errors, a compressed stream's that
+    is not of its format or cut short, and bytes that are no UTF-8 text become RecordingFileError
+    naming the path."""
     try:
-        with open_text(path) as f:
-            return f.read()
-    except UNREADABLE as err:
-        raise RecordingFileError(f"{path}: cannot read the file ({unreadable_reason(err)})") from err
+        yield
+    except EOFError as err:  # a compressed file cut short
+        raise RecordingFileError(f"{path}: cannot read the file (it is cut short{': ' + str(err) if str(err) else ''})") from err
+    except _UNREADABLE as err:
+        raise RecordingFileError(f"{path}: cannot read the file ({getattr(err, 'strerror', None) or str(err) or type(err).__name__})") from err
     except UnicodeDecodeError as err:
         raise RecordingFileError(f"{path}: not a text table ({err})") from err
 
 
-def unreadable_reason(err: BaseException) -> str:
-    """Why a file could not be read, in words (a truncated compressed file's EOFError has none)."""
-    if isinstance(err, EOFError):
-        return f"it is cut short: {err}" if str(err) else "it is cut short"
-    if isinstance(err, OSError) and err.strerror:
-        return err.strerror
-    return str(err) or type(err).__name__
+def read_text(path: str | os.PathLike[str]) -> str:
+    """The whole text of a text table (as :func:`open_text`, errors as :func:`reading` says them)."""
+    with reading(path), open_text(path) as f:
+        return f.read()
