@@ -141,8 +141,9 @@ def compare_dataset(folder: Path, *, arm: str | None = None, procs: int = 2, pla
         for f in files:
             rec = read_side(f, arm)  # as diagnose reads it; errors name the file
             sides.add(rec.side)
-            urdf_arm = urdf_arms.setdefault(rec.side, UrdfArm.from_urdf(rec.side))
-            stats.append(recording_stats(urdf_arm, f.name, rec.q, rec.qd, rec.effort, rec.rate_hz, cutoff_hz=plain_cutoff_hz))
+            if rec.side not in urdf_arms:
+                urdf_arms[rec.side] = UrdfArm.from_urdf(rec.side)
+            stats.append(recording_stats(urdf_arms[rec.side], f.name, rec.q, rec.qd, rec.effort, rec.rate_hz, cutoff_hz=plain_cutoff_hz))
     if len(sides) != 1:
         raise ValueError(f"{folder}: recordings of both arms ({', '.join(sorted(sides))}); a dataset's rotations need one arm")
     (side,) = sides

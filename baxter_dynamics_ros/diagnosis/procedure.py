@@ -154,12 +154,10 @@ def diagnose(
     cutoffs = choose_cutoff([s.scores for s in train_screens], min(s.rate_hz for s in screened))
     histogram = sum(s.histogram for s in test_screens)
     wanted = wanted_bins(histogram)
-    span = angle_span(sum(s.histogram for s in train_screens))
+    covered = sum(s.histogram for s in train_screens)
+    span = angle_span(covered)
     folds_outside = (
-        {
-            source.label: share_outside(own.histogram, angle_span(sum(o.histogram for o in train_screens if o is not own)))
-            for source, own in zip(train_sources, train_screens)
-        }
+        {source.label: share_outside(own.histogram, angle_span(covered - own.histogram)) for source, own in zip(train_sources, train_screens)}
         if len(train_sources) > 1
         else {}
     )
