@@ -10,6 +10,8 @@
 - :mod:`msg_adapters.csv_io` — recordings as tables (CSV, Parquet);
 - :mod:`msg_adapters.text_files` — text tables as datasets publish them: compressed or not, with or
   without a byte-order mark, and what kind of file a path holds;
+- :mod:`msg_adapters.table_columns` — what a table's column names say: each joint's position,
+  velocity and effort column, and the time, however a dataset names them;
 - :mod:`msg_adapters.rostopic_table` — joint states dumped by ROS 1's ``rostopic echo -p``;
 - :mod:`msg_adapters.mat_files` — MATLAB files of recordings, as robot-learning datasets publish them;
 - :mod:`msg_adapters.recording_files` — which reader or writer a path calls for.
@@ -23,5 +25,5 @@ from __future__ import annotations
 
 __all__ = [
     "bag_io", "csv_io", "dynamics_services", "joint_state", "mat_files", "mcap_writer", "recording_files", "rostopic_table", "serialized_joint_states",
-    "text_files",
+    "table_columns", "text_files",
 ]  # fmt: skip

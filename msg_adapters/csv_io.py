@@ -1,10 +1,13 @@
 """Recordings as tables: CSV files (and Parquet, same columns) in and out.
 
-Two column layouts are read; joints are matched by name, columns may come in any order and extra
-columns are ignored. A text table's fields are separated by commas, semicolons or whitespace (tabs
-too), as its header line's are; it may be compressed whole (:mod:`msg_adapters.text_files`), and
-begin with comment lines (``#``), the last of them the header where data rows follow it
-(``numpy.savetxt``'s ``# ang_s0 …``).
+Joints are matched by name, columns may come in any order and extra columns are ignored. A text
+table's fields are separated by commas, semicolons or whitespace (tabs too), as its header line's
+are; it may be compressed whole (:mod:`msg_adapters.text_files`), and begin with comment lines
+(``#``), the last of them the header where data rows follow it (``numpy.savetxt``'s ``# ang_s0 …``).
+
+Which column holds which joint's position, velocity or effort, and which the time, its name says
+(:mod:`msg_adapters.table_columns`: ``ang_left_s0``, ``position_s0``, ``left_s0_pos``, ``q1 … q7``,
+``time [s]`` and the like). Two layouts are this package's own:
 
 - **Baxter export** (the layout of the real recordings in ``../shared/data/baxter_real``):
   whitespace-separated, one header line, columns ``ang_<joint>`` (rad), ``vel_<joint>`` (rad/s),
@@ -15,7 +18,9 @@ begin with comment lines (``#``), the last of them the header where data rows fo
 
 ``<joint>`` is a Baxter joint name such as ``right_s0``; the arm is the one whose 7 joints all have
 columns (the one that moves more if both do), unless given. Tables of other datasets often name no
-arm (``ang_s0``, ``position_s0``): they are read for the arm given (``--arm``), and refused without.
+arm (``ang_s0``, ``q1``): they are read for the arm given (``--arm``), and refused without. A time
+column whose name gives no unit is read in the one of s, ms, µs, ns in which its steps match the
+velocities, and the note says which.
 
 Without a time column, samples are evenly spaced at the rate given (``--rate-hz``) or estimated from
 the data (:func:`~baxter_dynamics_ros.core.recording.estimate_rate_hz`: least squares of Δq on q̇ Δt);
@@ -35,6 +40,7 @@ Written by :func:`write_processed_table`: ``stamp_ns``, ``time_s`` (s since the 
 
 from __future__ import annotations
 
+import math
 import os
 import re
 from collections.abc import Callable, Sequence
@@ -42,13 +48,14 @@ from pathlib import Path
 
 import numpy as np
 
-from baxter_dynamics_ros.core.joints import ARM_SIDES, JOINT_SUFFIXES, arm_joint_names
+from baxter_dynamics_ros.core.joints import ARM_SIDES, JOINT_SUFFIXES
 from baxter_dynamics_ros.core.plausibility import package_bounds, plausible_recording, screen_samples
 from baxter_dynamics_ros.core.recording import (
     JUMP_GAP_PERIODS, OtherArm, ProcessedRecording, Recording, detect_arm, estimate_rate_hz, jumps, require_activity, summed_range_rad,
 )  # fmt: skip
 from baxter_dynamics_ros.errors import RecordingFileError
 
+from .table_columns import QUANTITIES, JointColumn, TimeColumn, joint_columns, time_columns
 from .text_files import kind_suffix, read_text
 
 __all__ = ["RATE_TOLERANCE", "Note", "columns_recording", "joint_state_columns", "read_table_recording", "write_processed_table", "write_table"]
@@ -58,8 +65,6 @@ RATE_TOLERANCE = 0.10
 #: The largest time_s that int64 nanoseconds hold (292 years), s.
 MAX_TIME_S = 9.2e9
 Note = Callable[[str], None]  # takes a one-line message for the user
-#: Column prefixes of q, q̇, effort in each layout.
-LAYOUTS = {"baxter export": ("ang_", "vel_", "torq_"), "generic": ("position_", "velocity_", "effort_")}
 
 
 def _refuse_duplicates(path: Path, names: Sequence[str]) -> None:
@@ -91,6 +96,11 @@ def _is_numbers(line: str) -> bool:
     return True
 
 
+def _nanosecond_columns(names: Sequence[str]) -> list[str]:
+    """The time columns in nanoseconds among a table's column names, read as integers (exact)."""
+    return [c.name for c in time_columns(names) if c.scale_s == 1e-9]
+
+
 def _read_columns(path: Path) -> dict[str, np.ndarray]:
     """Every column of a text table (comma, semicolon or whitespace separated; compressed or not:
     :mod:`msg_adapters.text_files`) or a Parquet file, by header name; a name given twice is refused."""
@@ -104,12 +114,13 @@ def _read_columns(path: Path) -> dict[str, np.ndarray]:
         except Exception as err:  # noqa: BLE001 - pyarrow's errors all mean "not a readable Parquet file"
             raise RecordingFileError(f"{path}: cannot read the Parquet file ({err})") from err
         _refuse_duplicates(path, table.column_names)
+        nanoseconds = _nanosecond_columns(table.column_names)
         columns = {}
         for name in table.column_names:
             values = table.column(name).to_numpy(zero_copy_only=False)
-            if name == "stamp_ns":
+            if name in nanoseconds:
                 if not (values.dtype.kind == "i" or (values.dtype.kind == "u" and (values < 2**63).all())):
-                    raise RecordingFileError(f"{path}: column stamp_ns must hold integer nanoseconds, got {values.dtype}")
+                    raise RecordingFileError(f"{path}: column {name} must hold integer nanoseconds, got {values.dtype}")
                 columns[name] = values.astype(np.int64)
                 continue
             try:
@@ -127,43 +138,90 @@ def _read_columns(path: Path) -> dict[str, np.ndarray]:
     _refuse_duplicates(path, names)
     try:
         values = np.loadtxt(rows, delimiter=delimiter, ndmin=2, dtype=np.float64, comments=None)
-        stamps = (
-            np.loadtxt(rows, delimiter=delimiter, ndmin=1, dtype=np.int64, usecols=names.index("stamp_ns"), comments=None)
-            if "stamp_ns" in names
-            else None
-        )
+        stamps = {
+            name: np.loadtxt(rows, delimiter=delimiter, ndmin=1, dtype=np.int64, usecols=names.index(name), comments=None)
+            for name in _nanosecond_columns(names)
+        }
     except ValueError as err:
         raise RecordingFileError(f"{path}: not a table of numbers under a header line ({err})") from err
     if values.shape[1] != len(names):
         raise RecordingFileError(f"{path}: the header names {len(names)} columns but rows have {values.shape[1]}")
     columns = {name: values[:, k] for k, name in enumerate(names)}
-    if stamps is not None:
-        columns["stamp_ns"] = stamps
+    columns.update(stamps)
     return columns
 
 
-def _arm_columns(columns: dict[str, np.ndarray], prefixes: tuple[str, ...], side: str) -> list[str] | None:
-    """The q, q̇, effort column names of ``side``'s 7 joints, 7 per prefix: ``<prefix><side>_<joint>``
-    when they are all there, else the arm-less ``<prefix><joint>`` when those are; None if neither."""
-    for names in (arm_joint_names(side), JOINT_SUFFIXES):
-        wanted = [p + j for p in prefixes for j in names]
-        if all(c in columns for c in wanted):
+def _arm_columns(found: dict[tuple[str, str | None, str], JointColumn], side: str, *, armless: bool = True) -> list[JointColumn] | None:
+    """The position, velocity and effort columns of ``side``'s 7 joints, 7 per quantity: those
+    naming the arm when they are all there, else (``armless``) those naming none when they are;
+    None if neither."""
+    for named in (side, None) if armless else (side,):
+        wanted = [found.get((quantity, named, j)) for quantity in QUANTITIES for j in JOINT_SUFFIXES]
+        if all(wanted):
             return wanted
     return None
 
 
-def _other_arms(columns: dict[str, np.ndarray], prefixes: tuple[str, ...], side: str) -> dict[str, OtherArm]:
+def _missing(found: dict[tuple[str, str | None, str], JointColumn], named: str | None, side: str) -> tuple[str, ...]:
+    """The names, as the table would write them, of the joint columns it lacks of ``side``'s arm
+    in the naming ``named`` (the arm's name, or None: no arm)."""
+    out = []
+    for quantity in QUANTITIES:
+        model = next((c for key, c in found.items() if key[:2] == (quantity, named)), None)
+        out += [model.renamed(j) if model else f"the {quantity} of {side}_{j}" for j in JOINT_SUFFIXES if (quantity, named, j) not in found]
+    return tuple(out)
+
+
+def _other_arms(found: dict[tuple[str, str | None, str], JointColumn], columns: dict[str, np.ndarray], side: str) -> dict[str, OtherArm]:
     """What the table holds of the arms other than ``side`` (for the errors of require_activity)."""
     others = {}
     for other in ARM_SIDES:
-        joints = arm_joint_names(other)
-        q = [columns[prefixes[0] + j] for j in joints if prefixes[0] + j in columns]
+        q = [found[key] for j in JOINT_SUFFIXES if (key := ("position", other, j)) in found]
         if other == side or not q:
             continue
-        effort = [columns[prefixes[2] + j] for j in joints if prefixes[2] + j in columns]
-        missing = tuple(p + j for p in prefixes for j in joints if p + j not in columns)
-        others[other] = OtherArm(np.column_stack(q), np.column_stack(effort) if effort else None, missing)
+        effort = [found[key] for j in JOINT_SUFFIXES if (key := ("effort", other, j)) in found]
+        others[other] = OtherArm(
+            np.column_stack([columns[c.name] * c.scale for c in q]),
+            np.column_stack([columns[c.name] for c in effort]) if effort else None,
+            _missing(found, other, other),
+        )
     return others
+
+
+def _time_column_ns(path: Path, columns: dict[str, np.ndarray], time: TimeColumn, q: np.ndarray, qd: np.ndarray, note: Note | None) -> np.ndarray:
+    """(N,) stamps, int64 ns, from a time column: integers in ns as they are, any other scaled by
+    its unit (:mod:`msg_adapters.table_columns`) or, where its name gives none, by the unit in which
+    its steps match the velocities (:func:`_time_unit_s`)."""
+    values = columns[time.name]
+    if values.dtype.kind in "iu" and time.scale_s == 1e-9:
+        return values.astype(np.int64)
+    t = np.asarray(values, dtype=np.float64)
+    scale_s = time.scale_s if time.scale_s is not None else _time_unit_s(path, time.name, t, q, qd, note)
+    if not (np.isfinite(t).all() and np.abs(t).max() * scale_s < MAX_TIME_S):
+        raise RecordingFileError(f"{path}: {time.name} must hold finite times, below {MAX_TIME_S:.3g} s in size (int64 ns)")
+    return np.round(t * (scale_s * 1e9)).astype(np.int64)
+
+
+def _time_unit_s(path: Path, name: str, t: np.ndarray, q: np.ndarray, qd: np.ndarray, note: Note | None) -> float:
+    """Seconds per unit of a time column t (N,) whose name gives no unit: the one of s, ms, µs, ns
+    within :data:`RATE_TOLERANCE` of the least-squares factor s that makes the positions' steps
+    match the velocities, Δq_k = s·Δt_k·(q̇_k + q̇_{k+1}) / 2 (rows with a non-finite value left
+    out); said through ``note``. Refused where none is."""
+    dq, dt = np.diff(q, axis=0), np.diff(t)[:, None]
+    x = 0.5 * (qd[1:] + qd[:-1]) * dt
+    use = np.isfinite(dq) & np.isfinite(x)
+    xx = float(x[use] @ x[use])
+    factor = float(dq[use] @ x[use]) / xx if xx > 0.0 else math.nan
+    units = [(u, word) for u, word in ((1.0, "s"), (1e-3, "ms"), (1e-6, "µs"), (1e-9, "ns")) if abs(factor / u - 1.0) <= RATE_TOLERANCE]
+    if not units:
+        raise RecordingFileError(
+            f"{path}: the time column {name} names no unit, and with none of s, ms, µs, ns do its steps match the "
+            f"velocities ({factor:.3g} s per unit); name the unit in the header (e.g. {name}_s or {name}_ns)"
+        )
+    unit, word = units[0]
+    if note is not None:
+        note(f"{path}: the time column {name} names no unit; read in {word}, in which its steps match the velocities")
+    return unit
 
 
 def _sample_times_ns(
@@ -173,13 +231,9 @@ def _sample_times_ns(
     without ``rate_hz``, taken from) :func:`~baxter_dynamics_ros.core.recording.estimate_rate_hz`,
     and a gap at each jump of the positions (:func:`~baxter_dynamics_ros.core.recording.jumps`,
     beyond ``speed_bound`` (7,) rad/s), said through ``note``."""
-    if "stamp_ns" in columns:
-        return np.asarray(columns["stamp_ns"], dtype=np.int64)
-    if "time_s" in columns:
-        time_s = np.asarray(columns["time_s"], dtype=np.float64)
-        if not (np.isfinite(time_s).all() and np.abs(time_s).max() < MAX_TIME_S):
-            raise RecordingFileError(f"{path}: time_s must hold finite times in s, below {MAX_TIME_S:.3g} in size (int64 ns)")
-        return np.round(time_s * 1e9).astype(np.int64)
+    times = time_columns(columns)
+    if times:
+        return _time_column_ns(path, columns, times[0], q, qd, note)
     if rate_hz is not None and not (np.isfinite(rate_hz) and rate_hz > 0):
         raise RecordingFileError(f"{path}: has no time column and --rate-hz must be a positive number of Hz, got {rate_hz}")
     estimate = estimate_rate_hz(q, qd, speed_bound)
@@ -235,38 +289,38 @@ def columns_recording(
 ) -> Recording:
     """The recording of one arm from a table's columns (name -> (N,) values; either layout), as
     :func:`read_table_recording` reads it; path names the source in messages."""
-    prefixes = next((p for p in LAYOUTS.values() if any(c.startswith(p[0]) for c in columns)), None)
-    if prefixes is None:
+    try:
+        found = joint_columns(columns)
+    except RecordingFileError as err:
+        raise RecordingFileError(f"{path}: {err}") from err
+    if not found:
         raise RecordingFileError(
-            f"{path}: no joint columns; expected ang_/vel_/torq_<joint> (Baxter export) or "
-            f"position_/velocity_/effort_<joint> (generic), found: {', '.join(columns) or 'none'}"
+            f"{path}: no joint columns; expected a position, velocity and effort column per joint, named as "
+            f"ang_/vel_/torq_<joint> (Baxter export), position_/velocity_/effort_<joint> (generic), <joint>_pos, "
+            f"q1 … q7 and the like (<joint>: s0 … w2, left_s0 …), found: {', '.join(columns) or 'none'}"
         )
-    armless = all(p + j in columns for p in prefixes for j in JOINT_SUFFIXES)
-    if arm is None and armless:
-        example = " ".join(p + "s0" for p in prefixes)
+    if arm is None and all((quantity, None, j) in found for quantity in QUANTITIES for j in JOINT_SUFFIXES):
+        example = " ".join(found[(quantity, None, "s0")].name for quantity in QUANTITIES)
         raise RecordingFileError(f"{path}: the columns name no arm ({example} ...); pass --arm right|left")
     if arm is None:
-        q_prefix = prefixes[0]
-        joints = [c[len(q_prefix) :] for c in columns if c.startswith(q_prefix)]
-        named = [j for j in joints if all(p + j in columns for p in prefixes)]
+        named = [f"{side}_{j}" for (quantity, side, j) in found if quantity == "position" and side and all((k, side, j) in found for k in QUANTITIES)]
         ranges = {
-            side: summed_range_rad(np.column_stack([columns[q_prefix + j] for j in arm_joint_names(side)]))
+            side: summed_range_rad(np.column_stack([columns[c.name] * c.scale for c in chosen[:7]]))
             for side in ARM_SIDES
-            if set(arm_joint_names(side)) <= set(named)
+            if (chosen := _arm_columns(found, side, armless=False)) is not None
         }
         arm = detect_arm(named, ranges)
-    joints = arm_joint_names(arm)
-    names = _arm_columns(columns, prefixes, arm)
-    if names is None:
-        missing = [p + j for p in prefixes for j in joints if p + j not in columns]
-        raise RecordingFileError(f"{path}: the {arm} arm needs columns missing here: {', '.join(missing)}")
-    q, qd, effort = (np.column_stack([columns[c] for c in names[7 * k : 7 * k + 7]]).astype(np.float64) for k in range(3))
+    chosen = _arm_columns(found, arm)
+    if chosen is None:
+        named = arm if any(key[1] == arm for key in found) else None
+        raise RecordingFileError(f"{path}: the {arm} arm needs columns missing here: {', '.join(_missing(found, named, arm))}")
+    q, qd, effort = (np.column_stack([columns[c.name] * c.scale for c in chosen[7 * k : 7 * k + 7]]).astype(np.float64) for k in range(3))
     screening = screen_samples(package_bounds(arm), q, qd, effort)
     error = screening.refusal()
     if error is not None:
         raise error
     keep = screening.keep
-    require_activity(arm, q[keep], effort[keep], _other_arms(columns, prefixes, arm))
+    require_activity(arm, q[keep], effort[keep], _other_arms(found, columns, arm))
     gone = np.where(keep[:, None], 0.0, np.nan)  # implausible rows left out of the rate's estimate
     stamps_ns = _sample_times_ns(path, columns, q + gone, qd + gone, rate_hz, note, package_bounds(arm)[3])
     return plausible_recording(str(path), arm, stamps_ns, q, qd, effort, note, screening)

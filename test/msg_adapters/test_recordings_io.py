@@ -356,7 +356,7 @@ def test_table_errors_name_the_columns(tmp_path: Path) -> None:
     with pytest.raises(RecordingFileError, match="not a table of numbers"):
         read_table_recording(tmp_path / "words.csv")
     (tmp_path / "other.csv").write_text("a,b\n1,2\n")
-    with pytest.raises(RecordingFileError, match="no joint columns; expected ang_/vel_/torq_"):
+    with pytest.raises(RecordingFileError, match="no joint columns; expected a position, velocity and effort column per joint"):
         read_table_recording(tmp_path / "other.csv")
 
 

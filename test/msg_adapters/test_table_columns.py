@@ -1,0 +1,128 @@
+"""Tables whose columns other datasets name in their own ways (msg_adapters.table_columns), read
+end to end against the simulator's own arrays."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from baxter_dynamics_ros.core.joints import JOINT_SUFFIXES
+from baxter_dynamics_ros.errors import RecordingFileError
+from msg_adapters.recording_files import read_recording
+from msg_adapters.table_columns import joint_columns, time_columns
+
+
+@pytest.fixture(scope="module")
+def sim():
+    from baxter_dynamics_ros.simulation.plant import simulate
+    from baxter_dynamics_ros.simulation.spec import SimulationSpec
+
+    return simulate(SimulationSpec(trajectory="random", duration_s=3.0, rate_hz=200.0, seed=11, side="left"))
+
+
+def write(path: Path, columns: dict[str, np.ndarray], sep: str = ",") -> Path:
+    np.savetxt(path, np.column_stack(list(columns.values())), delimiter=sep, header=sep.join(columns), comments="", fmt="%.17g")
+    return path
+
+
+def arm_columns(sim, name) -> dict[str, np.ndarray]:
+    """name(quantity index 0..2, joint index 0..6) -> column name, for q, q̇, effort."""
+    out = {}
+    for k, values in enumerate((sim.q, sim.qd, sim.effort)):
+        out.update({name(k, j): values[:, j] for j in range(7)})
+    return out
+
+
+def test_names_say_quantity_side_and_joint() -> None:
+    found = joint_columns(
+        ["ang_left_s0", "Left_S1.Effort", "r_e0_vel", "q3", "tau[7]", "dq_0", "position_w2 [deg]", "effort_w1 [Nm]",
+         "desired_position_s0", "acceleration_left_s0", "gravity_s1", "head_pan", "field.position0", "effort_w0_deg"]
+    )  # fmt: skip
+    said = {key: (c.name, c.scale) for key, c in found.items()}
+    assert said == {
+        ("position", "left", "s0"): ("ang_left_s0", 1.0),
+        ("effort", "left", "s1"): ("Left_S1.Effort", 1.0),
+        ("velocity", "right", "e0"): ("r_e0_vel", 1.0),
+        ("position", None, "w2"): ("position_w2 [deg]", math.pi / 180.0),
+        ("effort", None, "w1"): ("effort_w1 [Nm]", 1.0),
+    }  # q3, tau[7], dq_0: one index of seven is no arm's; the rest name something else
+
+
+def test_indexed_columns_are_baxters_order_only_when_seven() -> None:
+    seven = joint_columns([f"q{k}" for k in range(1, 8)] + [f"tau_{k}" for k in range(7)])
+    assert [seven[("position", None, j)].name for j in JOINT_SUFFIXES] == [f"q{k}" for k in range(1, 8)]
+    assert [seven[("effort", None, j)].name for j in JOINT_SUFFIXES] == [f"tau_{k}" for k in range(7)]
+    assert joint_columns([f"position{k}" for k in range(17)]) == {}  # /robot/joint_states' 17 joints
+    assert joint_columns([f"q{k}" for k in range(2, 9)]) == {}
+
+
+def test_two_columns_saying_the_same_are_refused() -> None:
+    with pytest.raises(RecordingFileError, match="columns ang_left_s0 and position_left_s0 both hold the position of left_s0"):
+        joint_columns(["ang_left_s0", "position_left_s0"])
+
+
+def test_time_columns_nanoseconds_first_then_with_a_unit() -> None:
+    got = [(c.name, c.scale_s) for c in time_columns(["time", "t [ms]", "value", "stamp_ns", "time_s_ns", "header.stamp.secs"])]
+    assert got == [("stamp_ns", 1e-9), ("t [ms]", 1e-3), ("header.stamp.secs", 1.0), ("time", None)]
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        lambda k, j: f"{('pos', 'vel', 'eff')[k]}_left_{JOINT_SUFFIXES[j]}",
+        lambda k, j: f"left_{JOINT_SUFFIXES[j]}.{('position', 'velocity', 'effort')[k]}",
+        lambda k, j: f"{('Q', 'dQ', 'Tau')[k]}_L_{JOINT_SUFFIXES[j].upper()}",
+    ],
+    ids=["quantity_side_joint", "side_joint.quantity", "upper case"],
+)
+def test_named_layouts_read_the_arm_from_the_names(tmp_path: Path, sim, name) -> None:
+    t = (sim.stamps_ns - sim.stamps_ns[0]) * 1e-9
+    path = write(tmp_path / "named.csv", {"time [s]": t, **arm_columns(sim, name)})
+    rec = read_recording(path, note=None)
+    assert rec.side == "left"
+    np.testing.assert_array_equal(rec.q, sim.q)
+    np.testing.assert_array_equal(rec.qd, sim.qd)
+    np.testing.assert_array_equal(rec.effort, sim.effort)
+    np.testing.assert_array_equal(rec.stamps_ns - rec.stamps_ns[0], np.round(t * 1e9).astype(np.int64))
+
+
+@pytest.mark.parametrize(("unit", "per_s", "word"), [("s", 1.0, "s"), ("ms", 1e3, "ms"), ("ns", 1e9, "ns")])
+def test_a_time_column_without_a_unit_is_read_in_the_one_the_velocities_match(tmp_path: Path, sim, unit, per_s, word) -> None:
+    t = (sim.stamps_ns - sim.stamps_ns[0]) * 1e-9 + 12.0
+    columns = {"time": t * per_s, **arm_columns(sim, lambda k, j: f"{('q', 'dq', 'tau')[k]}{j + 1}")}
+    path = write(tmp_path / "indexed.txt", columns, sep=" ")
+    with pytest.raises(RecordingFileError, match="name no arm"):
+        read_recording(path, note=None)
+    notes: list[str] = []
+    rec = read_recording(path, arm="left", note=notes.append)
+    assert notes == [f"{path}: the time column time names no unit; read in {word}, in which its steps match the velocities"]
+    np.testing.assert_array_equal(rec.q, sim.q)
+    np.testing.assert_allclose((rec.stamps_ns - rec.stamps_ns[0]) * 1e-9, t - t[0], rtol=0, atol=2e-9)
+    assert rec.rate_hz == pytest.approx(200.0, rel=1e-6)
+
+
+def test_a_time_column_the_velocities_match_in_no_unit_is_refused(tmp_path: Path, sim) -> None:
+    t = (sim.stamps_ns - sim.stamps_ns[0]) * 1e-9 * 60.0  # minutes written as the count of seconds: no unit matches
+    path = write(tmp_path / "minutes.csv", {"t": t / 3600.0, **arm_columns(sim, lambda k, j: f"{('q', 'dq', 'tau')[k]}{j + 1}")})
+    with pytest.raises(RecordingFileError, match=r"the time column t names no unit, and with none of s, ms, µs, ns do its steps match"):
+        read_recording(path, arm="left", note=None)
+
+
+def test_degrees_are_converted(tmp_path: Path, sim) -> None:
+    columns = arm_columns(sim, lambda k, j: f"{('ang', 'vel', 'torq')[k]}_left_{JOINT_SUFFIXES[j]}{(' [deg]', ' [deg/s]', ' [Nm]')[k]}")
+    for name in list(columns)[:14]:
+        columns[name] = columns[name] * (180.0 / math.pi)
+    rec = read_recording(write(tmp_path / "degrees.csv", columns), note=None)
+    np.testing.assert_allclose(rec.q, sim.q, rtol=1e-14, atol=1e-15)
+    np.testing.assert_allclose(rec.qd, sim.qd, rtol=1e-14, atol=1e-14)
+    np.testing.assert_array_equal(rec.effort, sim.effort)
+
+
+def test_a_missing_column_is_named_as_the_table_would(tmp_path: Path, sim) -> None:
+    columns = arm_columns(sim, lambda k, j: f"{('q', 'dq', 'tau')[k]}_left_{JOINT_SUFFIXES[j]}")
+    del columns["tau_left_w1"]
+    with pytest.raises(RecordingFileError, match="the left arm needs columns missing here: tau_left_w1$"):
+        read_recording(write(tmp_path / "five.csv", columns), arm="left", note=None)
