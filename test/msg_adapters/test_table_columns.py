@@ -121,8 +121,12 @@ def test_degrees_are_converted(tmp_path: Path, sim) -> None:
     np.testing.assert_array_equal(rec.effort, sim.effort)
 
 
-def test_a_missing_column_is_named_as_the_table_would(tmp_path: Path, sim) -> None:
-    columns = arm_columns(sim, lambda k, j: f"{('q', 'dq', 'tau')[k]}_left_{JOINT_SUFFIXES[j]}")
-    del columns["tau_left_w1"]
-    with pytest.raises(RecordingFileError, match="the left arm needs columns missing here: tau_left_w1$"):
+@pytest.mark.parametrize(
+    ("name", "missing"),
+    [(lambda k, j: f"{('q', 'dq', 'tau')[k]}_left_{JOINT_SUFFIXES[j]}", "tau_left_w1"), (lambda k, j: f"{('Q', 'dQ', 'Tau')[k]}_L_{JOINT_SUFFIXES[j].upper()}", "Tau_L_W1")],
+)
+def test_a_missing_column_is_named_as_the_table_would(tmp_path: Path, sim, name, missing) -> None:
+    columns = arm_columns(sim, name)
+    del columns[missing]
+    with pytest.raises(RecordingFileError, match=f"the left arm needs columns missing here: {missing}$"):
         read_recording(write(tmp_path / "five.csv", columns), arm="left", note=None)
