@@ -7,7 +7,9 @@ words (letters and digits, split at anything else, any case): one word of a quan
 (Baxter's ``s0 … w2``, after an optional side ``left``/``l``/``right``/``r``) or its index, and
 nothing else but the unit and words that change no meaning (``joint``, ``measured``, ``actual``).
 A name with any other word is not a joint column: ``desired_position_s0``, ``acceleration_s0``,
-``gravity_left_s0`` are left alone, as are columns of other joints (``head_pan``).
+``gravity_left_s0`` are left alone, as are columns of other joints (``head_pan``). A name that
+begins with a topic's path, as PlotJuggler's CSV export writes them
+(``/robot/joint_states/left_s0/position``), is read from the path's segment that names the joint.
 
 - quantity words: position ``position pos ang angle q qpos theta``; velocity ``velocity vel qd dq
   qdot qvel``; effort ``effort eff torque torq tau trq`` (plurals too);
@@ -118,7 +120,12 @@ def _joint_word(words: Sequence[tuple[str, tuple[int, int]]]) -> tuple[str | Non
 def _meaning(name: str) -> tuple[str, str | None, str | None, int | None, tuple[int, int], float] | None:
     """(quantity, side, joint, index, the joint word's span, scale) that a column name says, or
     None where it is not a joint column (module docstring)."""
-    side, joint, span, rest = _joint_word(_words(name))
+    words = _words(name)
+    if name.startswith("/"):  # a topic's path first (PlotJuggler's /robot/joint_states/left_s0/position)
+        joint_at = next((start for word, (start, _) in words if word in JOINT_SUFFIXES), len(name))
+        segment = name.rfind("/", 0, joint_at)
+        words = [(word, where) for word, where in words if where[0] > segment]
+    side, joint, span, rest = _joint_word(words)
     quantity = index = None
     scale = 1.0
     for word, (start, end) in rest:

@@ -39,7 +39,8 @@ def arm_columns(sim, name) -> dict[str, np.ndarray]:
 def test_names_say_quantity_side_and_joint() -> None:
     found = joint_columns(
         ["ang_left_s0", "Left_S1.Effort", "r_e0_vel", "q3", "tau[7]", "dq_0", "position_w2 [deg]", "effort_w1 [Nm]",
-         "desired_position_s0", "acceleration_left_s0", "gravity_s1", "head_pan", "field.position0", "effort_w0_deg"]
+         "desired_position_s0", "acceleration_left_s0", "gravity_s1", "head_pan", "field.position0", "effort_w0_deg",
+         "/robot/limb/left/commanded_position/left_e1", "/robot/joint_states/head_pan/position"]
     )  # fmt: skip
     said = {key: (c.name, c.scale) for key, c in found.items()}
     assert said == {
@@ -65,8 +66,8 @@ def test_two_columns_saying_the_same_are_refused() -> None:
 
 
 def test_time_columns_nanoseconds_first_then_with_a_unit() -> None:
-    got = [(c.name, c.scale_s) for c in time_columns(["time", "t [ms]", "value", "stamp_ns", "time_s_ns", "header.stamp.secs"])]
-    assert got == [("stamp_ns", 1e-9), ("t [ms]", 1e-3), ("header.stamp.secs", 1.0), ("time", None)]
+    got = [(c.name, c.scale_s) for c in time_columns(["time", "t [ms]", "value", "stamp_ns", "time_s_ns", "header.stamp.secs", "__time"])]
+    assert got == [("stamp_ns", 1e-9), ("t [ms]", 1e-3), ("header.stamp.secs", 1.0), ("time", None), ("__time", None)]
 
 
 @pytest.mark.parametrize(
@@ -75,8 +76,9 @@ def test_time_columns_nanoseconds_first_then_with_a_unit() -> None:
         lambda k, j: f"{('pos', 'vel', 'eff')[k]}_left_{JOINT_SUFFIXES[j]}",
         lambda k, j: f"left_{JOINT_SUFFIXES[j]}.{('position', 'velocity', 'effort')[k]}",
         lambda k, j: f"{('Q', 'dQ', 'Tau')[k]}_L_{JOINT_SUFFIXES[j].upper()}",
+        lambda k, j: f"/robot/joint_states/left_{JOINT_SUFFIXES[j]}/{('position', 'velocity', 'effort')[k]}",
     ],
-    ids=["quantity_side_joint", "side_joint.quantity", "upper case"],
+    ids=["quantity_side_joint", "side_joint.quantity", "upper case", "PlotJuggler"],
 )
 def test_named_layouts_read_the_arm_from_the_names(tmp_path: Path, sim, name) -> None:
     t = (sim.stamps_ns - sim.stamps_ns[0]) * 1e-9
