@@ -96,6 +96,22 @@ def _is_numbers(line: str) -> bool:
     return True
 
 
+def _numbers(rows: Sequence[str], delimiter: str | None) -> np.ndarray:
+    """(rows, columns) float64 of a text table's data rows; in comma- or semicolon-separated rows an
+    empty field is a missing value, NaN (exports of several topics leave one where a topic has no
+    sample at that time, as PlotJuggler's do): rows with one in the arm's columns are left out."""
+    try:
+        return np.loadtxt(rows, delimiter=delimiter, ndmin=2, dtype=np.float64, comments=None)
+    except ValueError:
+        if delimiter is None:
+            raise
+        return np.loadtxt(rows, delimiter=delimiter, ndmin=2, dtype=np.float64, comments=None, converters=_number_or_missing)
+
+
+def _number_or_missing(field: str) -> float:
+    return float(field) if field.strip() else math.nan
+
+
 def _nanosecond_columns(names: Sequence[str]) -> list[str]:
     """The time columns in nanoseconds among a table's column names, read as integers (exact)."""
     return [c.name for c in time_columns(names) if c.scale_s == 1e-9]
@@ -137,7 +153,7 @@ def _read_columns(path: Path) -> dict[str, np.ndarray]:
     names = [n.strip() for n in header.split(delimiter)]
     _refuse_duplicates(path, names)
     try:
-        values = np.loadtxt(rows, delimiter=delimiter, ndmin=2, dtype=np.float64, comments=None)
+        values = _numbers(rows, delimiter)
         stamps = {
             name: np.loadtxt(rows, delimiter=delimiter, ndmin=1, dtype=np.int64, usecols=names.index(name), comments=None)
             for name in _nanosecond_columns(names)

@@ -132,3 +132,25 @@ def test_a_missing_column_is_named_as_the_table_would(tmp_path: Path, sim, name,
     del columns[missing]
     with pytest.raises(RecordingFileError, match=f"the left arm needs columns missing here: {missing}$"):
         read_recording(write(tmp_path / "five.csv", columns), arm="left", note=None)
+
+
+def test_empty_fields_are_missing_values_and_their_rows_left_out(tmp_path: Path, sim) -> None:
+    """PlotJuggler's export of two topics: rows of the other topic leave the arm's fields empty."""
+    t = (sim.stamps_ns - sim.stamps_ns[0]) * 1e-9
+    columns = {"__time": t, **arm_columns(sim, lambda k, j: f"/robot/joint_states/left_{JOINT_SUFFIXES[j]}/{('position', 'velocity', 'effort')[k]}")}
+    columns["/robot/other/data"] = np.arange(len(t), dtype=float)
+    lines = [",".join(columns)] + [",".join(f"{v[i]:.17g}" for v in columns.values()) for i in range(len(t))]
+    gaps = [40, 41, 300]
+    for i in gaps:  # a row of the other topic: only its own field and the time
+        lines[1 + i] = ",".join(f"{v[i]:.17g}" if name in ("__time", "/robot/other/data") else "" for name, v in columns.items())
+    path = tmp_path / "plotjuggler.csv"
+    path.write_text("\n".join(lines) + "\n")
+    notes: list[str] = []
+    rec = read_recording(path, note=notes.append)
+    keep = np.setdiff1d(np.arange(len(t)), gaps)
+    np.testing.assert_array_equal(rec.q, sim.q[keep])
+    np.testing.assert_array_equal(rec.effort, sim.effort[keep])
+    assert any(f"3 of {len(t)} samples skipped as implausible (3 NaN or inf)" in n for n in notes), notes
+    (tmp_path / "words.csv").write_text("__time,a\n1,\n2,x\n")
+    with pytest.raises(RecordingFileError, match="not a table of numbers"):
+        read_recording(tmp_path / "words.csv", note=None)
