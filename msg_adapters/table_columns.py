@@ -52,6 +52,7 @@ _NEUTRAL = frozenset({"joint", "joints", "measured", "meas", "actual"})
 _SI_UNITS = frozenset({"rad", "rads", "s", "sec", "nm", "n", "m"})
 _DEGREE_UNITS = frozenset({"deg", "degs", "degree", "degrees"})
 _TIME_WORDS = frozenset({"time", "t", "stamp", "timestamp", "timestamps", "%time"})
+_TIME_NEUTRAL = frozenset({"header"})  # header.stamp
 #: A time column's unit word -> seconds per unit.
 _TIME_UNITS = {
     "s": 1.0, "sec": 1.0, "secs": 1.0, "second": 1.0, "seconds": 1.0,
@@ -177,6 +178,6 @@ def time_columns(names: Iterable[str]) -> list[TimeColumn]:
     for name in names:
         words = [word for word, _ in _words(name)]
         units = [_TIME_UNITS[w] for w in words if w in _TIME_UNITS]
-        if any(w in _TIME_WORDS for w in words) and all(w in _TIME_WORDS or w in _TIME_UNITS or w == "header" for w in words) and len(units) <= 1:
+        if any(w in _TIME_WORDS for w in words) and all(w in _TIME_WORDS or w in _TIME_UNITS or w in _TIME_NEUTRAL for w in words) and len(units) <= 1:
             found.append(TimeColumn(name, units[0] if units else None))
     return sorted(found, key=lambda c: (c.scale_s != 1e-9, c.scale_s is None))
