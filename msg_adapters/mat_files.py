@@ -15,7 +15,13 @@ from q and q̇ or given, as for a table without one, :mod:`msg_adapters.csv_io`)
   ``X_train``/``Y_train`` and ``X_test``/``Y_test`` of BaxterRand.mat): one part per pair, named by
   ``<s>`` without its leading underscore (``train``), ``XY`` for a bare ``X``/``Y``, the X
   variable's name where another part or variable has that name already;
-- a matrix of 28 columns ``[q, q̇, q̈, τ]`` (the SARCOS layout): one part per variable.
+- a matrix of 28 columns ``[q, q̇, q̈, τ]`` (the SARCOS layout): one part per variable;
+- **one variable per quantity**, each of 7 columns: ``q``, ``dq``, ``tau`` and a time vector ``t``
+  (optional), named as :func:`msg_adapters.table_columns.block_meaning` reads them (``pos``,
+  ``qd``, ``torque``, ``time_s``, degrees converted, …): one part per label, the words their names
+  share beside the quantity (``q_train``, ``dq_train``, ``tau_train``: part ``train``; none: the
+  part is named after its variables, ``q_dq_tau``). A time whose name gives no unit is read in the
+  one in which its steps match the velocities.
 
 Matrices stored transposed are read too (a layout with samples in rows is taken first). Parts come
 in the file's order, but a part named ``test`` (a dataset's own held-out split) last, the one
@@ -47,6 +53,7 @@ from baxter_dynamics_ros.core.recording import Recording
 from baxter_dynamics_ros.errors import RecordingFileError
 
 from .csv_io import Note, columns_recording
+from .table_columns import QUANTITIES, block_meaning
 
 __all__ = ["MAT_SUFFIX", "mat_parts", "read_mat_recording", "split_part"]
 
@@ -133,8 +140,8 @@ def _matrix_layout(shape: tuple[int, ...]) -> int | None:
     return None
 
 
-def _recordings(contents: list[tuple[str, tuple[int, ...], str]]) -> dict[str, tuple[str, ...]]:
-    """part name -> its variables (one matrix, or the X and Y of a pair) of a file's
+def _recordings(path: Path, contents: list[tuple[str, tuple[int, ...], str]]) -> dict[str, tuple[str, ...]]:
+    """part name -> its variables (one matrix, the X and Y of a pair, or the q, q̇, τ blocks and a time) of a file's
     :func:`_contents`, in the file's order but a part named ``test`` last; {} for none."""
     numbers = {name: shape for name, shape, cls in contents if cls in _NUMBER_CLASSES}
     parts: dict[str, tuple[str, ...]] = {}
@@ -145,18 +152,35 @@ def _recordings(contents: list[tuple[str, tuple[int, ...], str]]) -> dict[str, t
             parts[name if short in numbers or short in parts else short] = (name, y)
         elif _matrix_layout(shape) is not None:
             parts[name] = (name,)
+    blocks: dict[str, dict[str, str]] = {}  # label -> quantity or "time" -> variable
+    for name, shape in numbers.items():
+        said = block_meaning(name)
+        if said is not None and (len(shape) == 2 and 1 in shape if said[0] == "time" else _rows_first(shape, _JOINTS) is not None):
+            held = blocks.setdefault(said[1], {})
+            if said[0] in held:
+                raise RecordingFileError(
+                    f"{path}: variables {held[said[0]]} and {name} both hold the {said[0]} of recording {said[1] or 'of no label'}; "
+                    "which one holds the data cannot be known"
+                )
+            held[said[0]] = name
+    for label, held in blocks.items():
+        if all(quantity in held for quantity in QUANTITIES):
+            names = tuple(held[k] for k in (*QUANTITIES, "time") if k in held)
+            short = label or "_".join(names[:3])
+            parts[names[0] if short in numbers or short in parts else short] = names
     return dict(sorted(parts.items(), key=lambda item: item[0] == _TEST_PART))
 
 
 def _parts(path: Path) -> dict[str, tuple[str, ...]]:
     """:func:`_recordings`, refusing a file that holds none by what it holds."""
     contents = _contents(path)
-    parts = _recordings(contents)
+    parts = _recordings(path, contents)
     if not parts:
         held = ", ".join(" ".join(filter(None, (n, "×".join(map(str, s)), c))) for n, s, c in contents) or "no variables"
         raise RecordingFileError(
             f"{path}: no recording in this MATLAB file (holds {held}); expected matrices of {' / '.join(_NUMBER_CLASSES)} "
-            "of 35 columns [q, q̇, τ, q⁺, q̇⁺] or 28 [q, q̇, q̈, τ], or X<s> of 21 columns [q, q̇, q̈] with Y<s> of 7 [τ]"
+            "of 35 columns [q, q̇, τ, q⁺, q̇⁺] or 28 [q, q̇, q̈, τ], X<s> of 21 columns [q, q̇, q̈] with Y<s> of 7 [τ], "
+            "or q, dq, tau of 7 columns each (and a time t), named as msg_adapters.table_columns reads them"
         )
     return parts
 
@@ -164,7 +188,7 @@ def _parts(path: Path) -> dict[str, tuple[str, ...]]:
 def mat_parts(path: str | os.PathLike[str]) -> list[str]:
     """The names of the recordings (parts) in the MATLAB file at path (module docstring); [] for a
     readable file that holds none (RecordingFileError for one that cannot be read)."""
-    return list(_recordings(_contents(Path(path))))
+    return list(_recordings(Path(path), _contents(Path(path))))
 
 
 def _matrix(path: Path, data: dict, name: str, columns: int) -> np.ndarray:
@@ -179,6 +203,11 @@ def _matrix(path: Path, data: dict, name: str, columns: int) -> np.ndarray:
 def _layout_arrays(path: Path, part: str, names: tuple[str, ...], data: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """q, q̇, τ (N, 7) of one part from its loaded variables."""
     n = _JOINTS
+    if len(names) >= 3:  # q, q̇, τ blocks (and the time)
+        q, qd, tau = (_matrix(path, data, name, n) * block_meaning(name)[2] for name in names[:3])
+        if not len(q) == len(qd) == len(tau):
+            raise RecordingFileError(f"{path}:{part}: {names[0]}, {names[1]} and {names[2]} have {len(q)}, {len(qd)} and {len(tau)} samples")
+        return q, qd, tau
     if len(names) == 2:
         x, y = _matrix(path, data, names[0], 3 * n), _matrix(path, data, names[1], n)
         if len(x) != len(y):
@@ -255,4 +284,18 @@ def read_mat_recording(
         for prefix, values in (("position", q), ("velocity", qd), ("effort", effort))
         for k, joint in enumerate(JOINT_SUFFIXES)
     }
+    if len(parts[part]) == 4:  # with its time
+        columns.update(_time_column(path, part, parts[part][3], data, len(q)))
     return columns_recording(Path(label), columns, arm=arm, rate_hz=rate_hz, note=note)
+
+
+def _time_column(path: Path, part: str, name: str, data: dict, samples: int) -> dict[str, np.ndarray]:
+    """A part's time variable as a table's time column: ``time_s`` where its name gives the unit,
+    else ``time`` (its unit inferred from the velocities, :mod:`msg_adapters.csv_io`)."""
+    if np.iscomplexobj(data[name]):
+        raise RecordingFileError(f"{path}: variable {name} holds complex numbers; times are real")
+    t = np.asarray(data[name], dtype=np.float64).reshape(-1)
+    if len(t) != samples:
+        raise RecordingFileError(f"{path}:{part}: {name} has {len(t)} samples but the joints' {samples}")
+    scale_s = block_meaning(name)[2]
+    return {"time": t} if scale_s is None else {"time_s": t * scale_s}

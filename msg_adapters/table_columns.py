@@ -36,7 +36,7 @@ from dataclasses import dataclass
 from baxter_dynamics_ros.core.joints import JOINT_SUFFIXES
 from baxter_dynamics_ros.errors import RecordingFileError
 
-__all__ = ["QUANTITIES", "JointColumn", "TimeColumn", "joint_columns", "time_columns"]
+__all__ = ["QUANTITIES", "JointColumn", "TimeColumn", "block_meaning", "joint_columns", "time_columns"]
 
 #: What a joint column holds, in the order a recording keeps them (rad, rad/s, N·m).
 QUANTITIES = ("position", "velocity", "effort")
@@ -181,3 +181,25 @@ def time_columns(names: Iterable[str]) -> list[TimeColumn]:
         if any(w in _TIME_WORDS for w in words) and all(w in _TIME_WORDS or w in _TIME_UNITS or w in _TIME_NEUTRAL for w in words) and len(units) <= 1:
             found.append(TimeColumn(name, units[0] if units else None))
     return sorted(found, key=lambda c: (c.scale_s != 1e-9, c.scale_s is None))
+
+
+def block_meaning(name: str) -> tuple[str, str, float | None] | None:
+    """What the name of a variable holding one quantity of all 7 joints (a matrix, columns s0 … w2)
+    or the time (a vector) says, as MATLAB files name them (``q``, ``dq_train``, ``tau``, ``t``):
+    (the quantity, or "time"; the label of the recording it belongs to, its other words joined by
+    "_", "" for none; the factor to the package's units — π/180 for degrees, else 1 — or for a time
+    its unit in s, None where the name gives none). None unless exactly one word is a quantity's
+    or the time's, or where a word names a joint."""
+    words = [word for word, _ in _words(name)]
+    quantities = [_QUANTITY_OF[w] for w in words if w in _QUANTITY_OF]
+    if len(quantities) + sum(w in _TIME_WORDS for w in words) != 1 or any(w in JOINT_SUFFIXES for w in words):
+        return None
+    if not quantities:
+        units = [_TIME_UNITS[w] for w in words if w in _TIME_UNITS]
+        label = [w for w in words if w not in _TIME_WORDS and w not in _TIME_UNITS and w not in _TIME_NEUTRAL]
+        return ("time", "_".join(label), units[0]) if len(units) == 1 else ("time", "_".join(label), None) if not units else None
+    degrees = any(w in _DEGREE_UNITS for w in words)
+    if degrees and quantities[0] == "effort":
+        return None
+    label = [w for w in words if w not in _QUANTITY_OF and w not in _NEUTRAL and w not in _SI_UNITS and w not in _DEGREE_UNITS]
+    return quantities[0], "_".join(label), math.pi / 180.0 if degrees else 1.0

@@ -298,3 +298,37 @@ def test_a_folder_passes_over_a_matlab_file_of_no_recording(tmp_path: Path) -> N
     assert expand_inputs([folder / "calibration.mat"]) == [folder / "calibration.mat"]
     with pytest.raises(RecordingFileError, match=r"calibration.mat: no recording in this MATLAB file \(holds offsets 1×7 double, note 1 char\)"):
         read_recording(folder / "calibration.mat", arm="left")
+
+
+def test_one_variable_per_quantity_with_or_without_a_time(tmp_path: Path) -> None:
+    """q, dq, tau of 7 columns (and t): one recording per label; a time without a unit read in the
+    one its steps match (here ms), degrees converted; v7.3 alike."""
+    (q1, qd1, tau1), (q2, qd2, tau2) = arm_states(1), arm_states(2)
+    t_ms = 1e3 * np.arange(N) / RATE_HZ + 500.0
+    path = tmp_path / "identification.mat"
+    contents = {
+        "q_test": q2, "dq_test": qd2.T, "tau_test": tau2,  # stored transposed too
+        "q_deg_train": np.degrees(q1), "qd_deg_train": np.degrees(qd1), "torque_train": tau1, "t_train": t_ms[:, None],
+        "qdd_train": np.zeros((N, 7)), "q_des_train": np.zeros((N, 7)),
+    }  # fmt: skip
+    for write in (savemat, savemat_v73):
+        write(path, contents)
+        parts = recordings_in(path)
+        assert [str(p) for p in parts] == [f"{path}:train", f"{path}:test"]
+        notes: list[str] = []
+        train = read_recording(parts[0], arm="left", note=notes.append)
+        np.testing.assert_allclose(train.q, q1, rtol=1e-15, atol=1e-15)
+        np.testing.assert_allclose(train.qd, qd1, rtol=1e-15, atol=1e-15)
+        np.testing.assert_array_equal(train.effort, tau1)
+        np.testing.assert_array_equal(train.stamps_ns - train.stamps_ns[0], np.round((t_ms - t_ms[0]) * 1e6).astype(np.int64))
+        assert notes == [f"{path}:train: the time column time names no unit; read in ms, in which its steps match the velocities"]
+        assert_read(read_recording(parts[1], arm="left", note=None), q2, qd2, tau2)
+    savemat(path, {"q": q1, "qd": qd1, "tau": tau1[:-1]})
+    with pytest.raises(RecordingFileError, match=r"identification.mat:q_qd_tau: q, qd and tau have 400, 400 and 399 samples"):
+        read_recording(path, arm="left")
+    savemat(path, {"q": q1, "qd": qd1, "tau": tau1, "torque_measured": tau1})
+    with pytest.raises(RecordingFileError, match=r"variables tau and torque_measured both hold the effort of recording of no label"):
+        read_recording(path, arm="left")
+    savemat(path, {"q": q1, "qd": qd1, "tau_cmd": tau1})
+    with pytest.raises(RecordingFileError, match=r"no recording in this MATLAB file \(holds q 400×7 double, qd 400×7 double, tau_cmd 400×7 double\)"):
+        read_recording(path, arm="left")
