@@ -289,7 +289,7 @@ def _sample_times_ns(
 def read_table_recording(
     path: str | os.PathLike[str], *, arm: str | None = None, rate_hz: float | None = None, note: Note | None = None
 ) -> Recording:
-    """The recording of one arm from a CSV or Parquet file of either layout (module docstring).
+    """The recording of one arm from a CSV or Parquet file (module docstring: its columns named as :mod:`msg_adapters.table_columns` reads them).
 
     arm: "right" or "left", None to detect it from the column names (a table whose columns name no
     arm needs it); rate_hz: the sample rate of a table without a time column, Hz, None to estimate
@@ -303,7 +303,7 @@ def read_table_recording(
 def columns_recording(
     path: str | os.PathLike[str], columns: dict[str, np.ndarray], *, arm: str | None = None, rate_hz: float | None = None, note: Note | None = None
 ) -> Recording:
-    """The recording of one arm from a table's columns (name -> (N,) values; either layout), as
+    """The recording of one arm from a table's columns (name -> (N,) values, named as :mod:`msg_adapters.table_columns` reads them), as
     :func:`read_table_recording` reads it; path names the source in messages."""
     try:
         found = joint_columns(columns)
