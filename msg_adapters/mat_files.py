@@ -53,7 +53,7 @@ from baxter_dynamics_ros.core.recording import Recording
 from baxter_dynamics_ros.errors import RecordingFileError
 
 from .csv_io import Note, columns_recording
-from .table_columns import QUANTITIES, block_meaning
+from .table_columns import QUANTITIES, block_meaning, time_columns
 
 __all__ = ["MAT_SUFFIX", "mat_parts", "read_mat_recording", "split_part"]
 
@@ -291,11 +291,14 @@ def read_mat_recording(
 
 def _time_column(path: Path, part: str, name: str, data: dict, samples: int) -> dict[str, np.ndarray]:
     """A part's time variable as a table's time column: ``time_s`` where its name gives the unit,
-    else ``time`` (its unit inferred from the velocities, :mod:`msg_adapters.csv_io`)."""
+    else one named as the variable (``time`` where it has a label: ``t_train``), its unit inferred
+    from the velocities (:mod:`msg_adapters.csv_io`)."""
     if np.iscomplexobj(data[name]):
         raise RecordingFileError(f"{path}: variable {name} holds complex numbers; times are real")
     t = np.asarray(data[name], dtype=np.float64).reshape(-1)
     if len(t) != samples:
         raise RecordingFileError(f"{path}:{part}: {name} has {len(t)} samples but the joints' {samples}")
     scale_s = block_meaning(name)[2]
-    return {"time": t} if scale_s is None else {"time_s": t * scale_s}
+    if scale_s is not None:
+        return {"time_s": t * scale_s}
+    return {name if time_columns([name]) else "time": t}  # named as the file does where a table's column could be
