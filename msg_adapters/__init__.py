@@ -13,7 +13,8 @@
 - :mod:`msg_adapters.table_columns` — what a table's column names say: each joint's position,
   velocity and effort column, and the time, however a dataset names them;
 - :mod:`msg_adapters.rostopic_table` — joint states dumped by ROS 1's ``rostopic echo -p``;
-- :mod:`msg_adapters.mat_files` — MATLAB files of recordings, as robot-learning datasets publish them;
+- :mod:`msg_adapters.array_files` — files of named arrays (MATLAB, NumPy .npz, HDF5) holding
+  recordings, as robot-learning datasets publish them;
 - :mod:`msg_adapters.recording_files` — which reader or writer a path calls for.
 
 Submodules are imported on demand (``from msg_adapters.bag_io import ...``): only
@@ -24,6 +25,6 @@ Submodules are imported on demand (``from msg_adapters.bag_io import ...``): onl
 from __future__ import annotations
 
 __all__ = [
-    "bag_io", "csv_io", "dynamics_services", "joint_state", "mat_files", "mcap_writer", "recording_files", "rostopic_table", "serialized_joint_states",
+    "array_files", "bag_io", "csv_io", "dynamics_services", "joint_state", "mcap_writer", "recording_files", "rostopic_table", "serialized_joint_states",
     "table_columns", "text_files",
 ]  # fmt: skip

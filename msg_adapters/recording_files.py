@@ -4,8 +4,8 @@ Inputs, by what their suffix says they hold (:func:`~msg_adapters.text_files.kin
 ``.txt``, ``.tsv``, ``.dat`` (each also compressed: ``.gz``, ``.bz2``, ``.xz`` after it;
 :mod:`msg_adapters.text_files`) and ``.parquet`` are tables (:mod:`msg_adapters.csv_io`; joint states
 dumped by ``rostopic echo -p``, recognised by their header: :mod:`msg_adapters.rostopic_table`);
-``.mat`` are MATLAB files of one or more recordings, ``<file>.mat:<part>`` naming one
-(:mod:`msg_adapters.mat_files`); ``.bag``, ``.mcap``, ``.db3`` and folders are bags
+``.mat``, ``.npz``, ``.h5`` and ``.hdf5`` are files of arrays of one or more recordings,
+``<file>.mat:<part>`` naming one (:mod:`msg_adapters.array_files`); ``.bag``, ``.mcap``, ``.db3`` and folders are bags
 (:mod:`msg_adapters.bag_io`; a ROS 2 bag is a folder); a file of any other kind is refused, naming the kinds.
 
 Outputs, by the path's extension:
@@ -33,7 +33,7 @@ from baxter_dynamics_ros.errors import RecordingError, RecordingFileError
 
 from .bag_io import DEFAULT_TOPIC, Progress, read_bag_recording, write_joint_state_bag, write_processed_bag
 from .csv_io import Note, joint_state_columns, read_table_recording, write_processed_table, write_table
-from .mat_files import MAT_SUFFIX, mat_parts, read_mat_recording, split_part
+from .array_files import ARRAY_FILES, array_parts, read_array_recording, split_part
 from .rostopic_table import is_rostopic_table, read_rostopic_recording
 from .text_files import COMPRESSION_SUFFIXES, TEXT_SUFFIXES, kind_suffix
 
@@ -46,11 +46,11 @@ TABLE_SUFFIXES = (*TEXT_SUFFIXES, ".parquet")
 #: Bag files the readers know (a ROS 2 bag folder, holding metadata.yaml, is read too).
 BAG_SUFFIXES = (".bag", ".mcap", ".db3")
 #: Every kind of file an input may be (:func:`~msg_adapters.text_files.kind_suffix`; a ROS 2 bag folder besides).
-INPUT_SUFFIXES = (*BAG_SUFFIXES, *TABLE_SUFFIXES, MAT_SUFFIX)
+INPUT_SUFFIXES = (*BAG_SUFFIXES, *TABLE_SUFFIXES, *ARRAY_FILES)
 #: The kinds of input, in words for messages.
 INPUT_KINDS = (
     f"bags {', '.join(BAG_SUFFIXES)}, ROS 2 bag folders, tables {', '.join(TABLE_SUFFIXES)} "
-    f"(text tables also compressed: {', '.join(COMPRESSION_SUFFIXES)}), MATLAB files {MAT_SUFFIX}"
+    f"(text tables also compressed: {', '.join(COMPRESSION_SUFFIXES)}), files of arrays .mat (MATLAB), .npz (NumPy), .h5, .hdf5 (HDF5)"
 )
 #: Output extension -> format.
 OUTPUT_FORMATS = {".mcap": "mcap", ".csv": "csv", ".parquet": "parquet"}
@@ -79,8 +79,8 @@ def read_recording(
     path, part = split_part(path)
     kind = kind_suffix(path)
     try:
-        if kind == MAT_SUFFIX:
-            return read_mat_recording(path, part, arm=arm, rate_hz=rate_hz, note=note)
+        if kind in ARRAY_FILES:
+            return read_array_recording(path, part, arm=arm, rate_hz=rate_hz, note=note)
         if kind in TABLE_SUFFIXES:
             if is_rostopic_table(path):
                 return read_rostopic_recording(path, arm=arm, note=note)
@@ -93,20 +93,20 @@ def read_recording(
 
 
 def source_file(path: str | os.PathLike[str]) -> Path:
-    """The file or folder on disk that an input is read from: the MATLAB file of ``<file>.mat:<part>``."""
+    """The file or folder on disk that an input is read from: the file of arrays of ``<file>.mat:<part>``."""
     return split_part(path)[0]
 
 
 def recordings_in(path: str | os.PathLike[str], *, listed: bool = False) -> list[Path]:
-    """The recordings an input file stands for: a MATLAB file of several recordings, each as
+    """The recordings an input file stands for: a file of arrays of several recordings, each as
     ``<file>.mat:<part>``; any other path, itself. listed (a file found in a folder or by a
-    pattern, not named): [] for a MATLAB file that holds no recording, instead of itself (whose
-    read then says so). RecordingFileError for a MATLAB file that cannot be read, or that a file
+    pattern, not named): [] for a file of arrays that holds no recording, instead of itself (whose
+    read then says so). RecordingFileError for a file of arrays that cannot be read, or that a file
     named like one of its parts would hide."""
     path = Path(path)
-    if kind_suffix(path) != MAT_SUFFIX or not path.is_file():
+    if kind_suffix(path) not in ARRAY_FILES or not path.is_file():
         return [path]
-    parts = mat_parts(path)
+    parts = array_parts(path)
     if len(parts) <= 1:
         return [] if listed and not parts else [path]
     addresses = [Path(f"{path}:{part}") for part in parts]

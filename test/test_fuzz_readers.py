@@ -193,7 +193,7 @@ def mutated_table(draw) -> str:
             lines.insert(k, delimiter.join(draw(st.lists(tokens, max_size=30))))
         else:
             names = lines[0].split(delimiter)
-            names[draw(st.integers(0, len(names) - 1))] = draw(st.sampled_from(["time_s", "stamp_ns", "ang_s0", "position_left_s0", "", "x"]) | tokens)
+            names[draw(st.integers(0, len(names) - 1))] = draw(st.sampled_from(["time_s", "stamp_ns", "ang_s0", "position_left_s0", "", "x", "time", "q1", "tau_7", "t [ms]"]) | tokens)
             lines[0] = delimiter.join(names)
     return "\n".join(lines) + draw(st.sampled_from(["\n", "", "\n\n", "\r\n"]))
 
@@ -294,7 +294,7 @@ def test_rostopic_reader_on_random_rows_under_its_header() -> None:
 
 
 def _mat_file() -> bytes:
-    """A MATLAB file of a forward-dynamics trajectory and an inverse-dynamics pair (msg_adapters.mat_files)."""
+    """A MATLAB file of a forward-dynamics trajectory and an inverse-dynamics pair (msg_adapters.array_files)."""
     import io
 
     from scipy.io import savemat
@@ -309,11 +309,11 @@ def _mat_file() -> bytes:
 @st.composite
 def matrices(draw) -> dict:
     """Variables of the layouts' names and shapes (and others), of any values: numbers, NaN, ±inf, text."""
-    names = draw(st.lists(st.sampled_from(["traj1", "X", "Y", "X_train", "Y_train", "sarcos", "note"]), unique=True, max_size=4))
+    names = draw(st.lists(st.sampled_from(["traj1", "X", "Y", "X_train", "Y_train", "sarcos", "note", "q", "dq", "tau", "t"]), unique=True, max_size=5))
     out = {}
     for name in names:
         rows = draw(st.integers(0, 6))
-        cols = draw(st.sampled_from([0, 7, 21, 28, 35, 3]))
+        cols = draw(st.sampled_from([0, 1, 7, 21, 28, 35, 3]))
         kind = draw(st.sampled_from(["float", "int", "text"]))
         if kind == "text":
             out[name] = draw(st.text(max_size=6))
@@ -352,6 +352,43 @@ def test_mat_reader_on_random_bytes_changed_files_and_any_variables() -> None:
     def check(data: bytes, option) -> None:
         path = _write("fuzzed.mat", data)
         for part in ("", ":traj1", ":train", ":XY", ":sarcos"):
+            _read_any(Path(f"{path}{part}"), *option)
+
+    check()
+
+
+@pytest.mark.parametrize("suffix", [".npz", ".h5"])
+def test_array_file_readers_on_random_bytes_changed_files_and_any_arrays(suffix: str) -> None:
+    """NumPy and HDF5 files of arrays: random bytes; a real one with bytes changed or cut; files of
+    arrays of any value, each read whole and part by part."""
+    import io
+
+    import h5py
+    from scipy.io import loadmat
+
+    def saved(arrays: dict) -> bytes:
+        buffer = io.BytesIO()
+        if suffix == ".npz":
+            np.savez(buffer, **{k: np.asarray(v) for k, v in arrays.items()})
+        else:
+            with h5py.File(buffer, "w") as f:
+                for name, values in arrays.items():
+                    f[name] = np.asarray(values) if not isinstance(values, str) else values
+        return buffer.getvalue()
+
+    real = {k: v for k, v in loadmat(_write("real.mat", _mat_file())).items() if not k.startswith("__")}
+    source = saved(real)
+    assert read_recording(f"{_write('real' + suffix, source)}:traj1", arm="left", note=None).side == "left"
+    changed = st.tuples(st.floats(0, 1, exclude_max=True), st.binary(min_size=1, max_size=8)).map(
+        lambda c: source[: int(c[0] * len(source))] + c[1] + source[int(c[0] * len(source)) + len(c[1]) :]
+    )
+    cut = st.floats(0, 1, exclude_max=True).map(lambda c: source[: int(c * len(source))])
+
+    @FUZZ
+    @given(st.binary(max_size=600) | changed | cut | matrices().map(saved), options)
+    def check(data: bytes, option) -> None:
+        path = _write("fuzzed" + suffix, data)
+        for part in ("", ":traj1", ":train", ":XY", ":q_dq_tau"):
             _read_any(Path(f"{path}{part}"), *option)
 
     check()

@@ -33,7 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     from ..monitoring.observer import DEFAULT_GAIN_1_S
     from ..monitoring.thresholds import DEFAULT_CONSECUTIVE
 
-    parser.add_argument("files", type=Path, nargs="+", metavar="FILE", help="collision-free recordings (bags, tables, MATLAB files or FILE.mat:PART, folders of them, quoted patterns)")
+    parser.add_argument("files", type=Path, nargs="+", metavar="FILE", help="collision-free recordings (bags, tables, files of arrays (.mat, .npz, .h5) or FILE.mat:PART, folders of them, quoted patterns)")
     parser.add_argument("--out", "-o", type=Path, required=True, metavar="YAML", help="thresholds file to write")
     parser.add_argument("--effects", type=Path, metavar="YAML", help="effects file from `diagnose` to compensate")
     parser.add_argument("--gain", type=float, default=DEFAULT_GAIN_1_S, metavar="1/S", help=f"observer gain K_O (default {DEFAULT_GAIN_1_S:g})")

@@ -10,7 +10,7 @@ contiguous blocks, never interleaved samples). Refused: a recording given twice 
 the same samples, in ``--train`` and ``--test`` or twice in ``--train``); a recording shorter than
 :data:`~baxter_dynamics_ros.core.recording.MIN_RECORDING_S` or with fewer than
 :data:`~baxter_dynamics_ros.core.recording.MIN_RECORDING_SAMPLES` samples (one not named but found in a
-folder, by a pattern or in a MATLAB file of several is passed over: :func:`~.inputs.too_short_found`); training data shorter than
+folder, by a pattern or in a file of arrays of several is passed over: :func:`~.inputs.too_short_found`); training data shorter than
 :data:`~baxter_dynamics_ros.core.recording.MIN_FIT_S` in all; an arm that does not move or has no effort
 (the readers). Writes ``DIR/diagnosis.json``, ``DIR/report.html``
 with its PNG plots and ``DIR/effects.yaml`` (for the node's ``effects_file``). Never imports rclpy.
@@ -41,7 +41,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The command's options."""
     from msg_adapters.bag_io import DEFAULT_TOPIC
 
-    parser.add_argument("--train", type=Path, nargs="+", required=True, metavar="FILE", help="recordings to fit on (bags, tables, MATLAB files or FILE.mat:PART, folders of them, quoted patterns)")
+    parser.add_argument("--train", type=Path, nargs="+", required=True, metavar="FILE", help="recordings to fit on (bags, tables, files of arrays (.mat, .npz, .h5) or FILE.mat:PART, folders of them, quoted patterns)")
     parser.add_argument("--test", type=Path, nargs="+", default=[], metavar="FILE", help="held-out recordings to measure on (as --train)")
     parser.add_argument("--out", "-o", type=Path, required=True, metavar="DIR", help="output folder (created)")
     parser.add_argument("--arm", choices=("right", "left"), help="arm to diagnose (default: from the joint names)")
@@ -136,9 +136,9 @@ def _refuse_repeats(items: list[tuple[str, str, Hashable]], same: str) -> None:
 
 
 def _file_id(path: Path) -> tuple[int, int, str | None]:
-    """(device, inode, part) of a file or bag folder (part: of a MATLAB file, else None): equal for
+    """(device, inode, part) of a file or bag folder (part: of a file of arrays, else None): equal for
     two names of one recording."""
-    from msg_adapters.mat_files import split_part
+    from msg_adapters.array_files import split_part
 
     file, part = split_part(path)
     st = file.stat()

@@ -1,8 +1,8 @@
 """The commands' input arguments as recordings: files, ROS 2 bag folders, folders of them, globs.
 
 One expansion for ``process``, ``diagnose`` and ``calibrate``: a file stays itself, but a MATLAB
-file of several recordings stands for each (``<file>.mat:<part>``, :mod:`msg_adapters.mat_files`),
-and ``<file>.mat:<part>`` names one (a MATLAB file of no recording found in a folder or by a
+file of several recordings stands for each (``<file>.mat:<part>``, :mod:`msg_adapters.array_files`),
+and ``<file>.mat:<part>`` names one (a file of arrays of no recording found in a folder or by a
 pattern is passed over, as a file of another kind is); a ROS 2 bag
 folder (it holds ``metadata.yaml``) is one recording; any other folder stands for the recordings
 directly in it (bag files, bag folders and tables, by name; not its subfolders' contents: a folder
@@ -12,7 +12,7 @@ pattern that yields no recording is refused (RecordingFileError); a path that do
 left for :func:`~baxter_dynamics_ros.cli.paths.check_paths` to refuse.
 
 A recording too short for the offline methods that the user did not name (found in a folder, by a
-pattern, or one part of a MATLAB file of several) is passed over with a note
+pattern, or one part of a file of arrays of several) is passed over with a note
 (:func:`too_short_found`); one named is refused by the method, as it cannot be used.
 """
 

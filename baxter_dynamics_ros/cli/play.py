@@ -35,7 +35,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Play args.bag; returns 0 (errors raise BaxterDynamicsError)."""
     from msg_adapters.bag_io import DEFAULT_TOPIC, read_joint_state_messages
-    from msg_adapters.mat_files import MAT_SUFFIX, split_part
+    from msg_adapters.array_files import ARRAY_FILES, split_part
     from msg_adapters.recording_files import TABLE_SUFFIXES
     from msg_adapters.text_files import kind_suffix
 
@@ -45,10 +45,10 @@ def run(args: argparse.Namespace) -> int:
         raise PlaybackError(f"--speed must be positive, got {args.speed}")
     file, part = split_part(args.bag)
     kind = kind_suffix(file)
-    if kind in (*TABLE_SUFFIXES, MAT_SUFFIX):
-        one = f"{file}:{part or 'PART'} --arm ARM" if kind == MAT_SUFFIX else f"{file}"
+    if kind in (*TABLE_SUFFIXES, *ARRAY_FILES):
+        one = f"{file}:{part or 'PART'} --arm ARM" if kind in ARRAY_FILES else f"{file}"
         raise PlaybackError(
-            f"{args.bag}: play takes bags (.bag, a ROS 2 bag folder, .mcap, .db3), not tables or MATLAB files; make one with "
+            f"{args.bag}: play takes bags (.bag, a ROS 2 bag folder, .mcap, .db3), not tables or files of arrays (.mat, .npz, HDF5); make one with "
             f"`baxter-dynamics process {one} --out BAG.mcap` and play it with --topics {DEFAULT_TOPIC}"
         )
     messages = read_joint_state_messages(args.bag, args.topics)

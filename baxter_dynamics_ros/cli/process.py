@@ -32,7 +32,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
     parser.add_argument(
         "input", type=Path, nargs="+", metavar="INPUT",
-        help="bag (.bag, ROS 2 folder, .mcap, .db3), table (.csv, .txt, .tsv, .dat, each also .gz/.bz2/.xz; .parquet) or MATLAB file (.mat; FILE.mat:PART for one of its recordings); or several, a folder of them, a quoted pattern",
+        help="bag (.bag, ROS 2 folder, .mcap, .db3), table (.csv, .txt, .tsv, .dat, each also .gz/.bz2/.xz; .parquet) or file of arrays (.mat, .npz, .h5, .hdf5; FILE.mat:PART for one of its recordings); or several, a folder of them, a quoted pattern",
     )
     parser.add_argument(
         "--out", "-o", type=Path, required=True, metavar="OUTPUT",
@@ -99,8 +99,8 @@ def run(args: argparse.Namespace) -> int:
 def _output_stem(path: Path) -> str:
     """The name of an input's output in a folder, without extension: the file's name without its
     kind and compression suffixes (``run`` for ``run.csv.gz``; a bag folder's name),
-    ``<stem>_<part>`` for a part of a MATLAB file."""
-    from msg_adapters.mat_files import split_part
+    ``<stem>_<part>`` for a part of a file of arrays."""
+    from msg_adapters.array_files import split_part
     from msg_adapters.text_files import stem
 
     file, part = split_part(path)

@@ -1,8 +1,11 @@
-"""Recordings in MATLAB files (``.mat``), as robot-learning datasets publish them.
+"""Recordings in files of named arrays, as robot-learning datasets publish them: MATLAB files
+(``.mat``), and NumPy's (``.npz``) and HDF5 files (``.h5``, ``.hdf5``) holding the same arrays,
+each array a variable (an HDF5 file's top-level datasets; its groups are no recording), stored as
+numpy writes them (samples in rows, or transposed).
 
 A MATLAB file holds several recordings (trajectories), each a *part* named after its variables:
 ``BaxterDirectDynamics.mat:baxtertraj3`` (:func:`split_part`). A file of one part is read as it is;
-of several, the commands take each as one recording (:func:`mat_parts`), or the one named.
+of several, the commands take each as one recording (:func:`array_parts`), or the one named.
 
 Layouts, told apart by the variables' shapes (rows are samples; each block of 7 columns is the arm's
 joints s0, s1, e0, e1, w0, w1, w2; rad, rad/s, N·m; no time column: the sample rate is estimated
@@ -54,12 +57,15 @@ from baxter_dynamics_ros.errors import RecordingFileError
 
 from .csv_io import Note, columns_recording
 from .table_columns import QUANTITIES, block_meaning, time_columns
+from .text_files import kind_suffix
 
-__all__ = ["MAT_SUFFIX", "mat_parts", "read_mat_recording", "split_part"]
+__all__ = ["ARRAY_FILES", "array_parts", "read_array_recording", "split_part"]
 
-MAT_SUFFIX = ".mat"
-#: An input naming one part of a MATLAB file: ``<file>.mat:<part>``.
-_PART_ADDRESS = re.compile(r"^(?P<file>.+\.mat):(?P<part>[^:/\\]+)$")
+#: The kinds of files of named arrays read (suffix -> what messages call them): MATLAB's, and
+#: NumPy's and HDF5's holding arrays as MATLAB's variables.
+ARRAY_FILES = {".mat": "MATLAB file", ".npz": "NumPy .npz file", ".h5": "HDF5 file", ".hdf5": "HDF5 file"}
+#: An input naming one part of such a file: ``<file>.mat:<part>``.
+_PART_ADDRESS = re.compile(r"^(?P<file>.+\.(?:mat|npz|h5|hdf5)):(?P<part>[^:/\\]+)$", re.IGNORECASE)
 _JOINTS = len(JOINT_SUFFIXES)
 #: columns of a matrix layout -> (what its blocks of 7 columns hold, the index of q̇'s and τ's blocks)
 _MATRIX_LAYOUTS = {5 * _JOINTS: ("[q, q̇, τ, q⁺, q̇⁺]", 1, 2), 4 * _JOINTS: ("[q, q̇, q̈, τ]", 1, 3)}
@@ -96,12 +102,35 @@ def _hdf5_variables(path: Path) -> Iterator[tuple[str, tuple[int, ...], str, Any
                 yield name, tuple(item.shape[::-1]), cls, item
 
 
+def _numpy_class(dtype: np.dtype) -> str:
+    """The MATLAB class of an array of ``dtype`` ("double", "single"; else numpy's name of it)."""
+    return {"float64": "double", "float32": "single"}.get(np.dtype(dtype).name, np.dtype(dtype).name)
+
+
+def _plain_contents(path: Path) -> list[tuple[str, tuple[int, ...], str]]:
+    """(name, shape, class) of each array of a NumPy .npz or HDF5 file (top level; an HDF5 group is
+    class "group"), shapes as stored (samples in rows or, transposed, in columns)."""
+    kind = ARRAY_FILES[kind_suffix(path)]
+    try:
+        if kind_suffix(path) == ".npz":
+            with open(path, "rb") as stream, np.load(stream, allow_pickle=False) as arrays:  # numpy leaves a path open on errors
+                return [(name, arrays[name].shape, _numpy_class(arrays[name].dtype)) for name in arrays.files]
+        import h5py
+
+        with h5py.File(path, "r") as f:
+            return [(name, item.shape, _numpy_class(item.dtype)) if isinstance(item, h5py.Dataset) else (name, (), "group") for name, item in f.items()]
+    except Exception as err:  # noqa: BLE001 - numpy's and h5py's errors all mean "not a readable file of this kind"
+        raise RecordingFileError(f"{path}: not a readable {kind} ({err})") from err
+
+
 def _contents(path: Path) -> list[tuple[str, tuple[int, ...], str]]:
-    """The variables of the MATLAB file at path: (name, shape, MATLAB class), without their data."""
+    """The variables of the file of arrays at path: (name, shape, MATLAB class), without their data."""
     from scipy.io import whosmat
 
     if not path.is_file():
         raise RecordingFileError(f"{path}: no such file")
+    if kind_suffix(path) != ".mat":
+        return _plain_contents(path)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # scipy's notes on odd files; what matters is refused below
@@ -116,7 +145,7 @@ def _contents(path: Path) -> list[tuple[str, tuple[int, ...], str]]:
     names = [name for name, _, _ in contents]
     twice = sorted({n for n in names if names.count(n) > 1})
     if twice:
-        raise RecordingFileError(f"{path}: variable {', '.join(twice)} appears more than once in this MATLAB file; which one holds the data cannot be known")
+        raise RecordingFileError(f"{path}: variable {', '.join(twice)} appears more than once in this {ARRAY_FILES[kind_suffix(path)]}; which one holds the data cannot be known")
     return contents
 
 
@@ -178,14 +207,14 @@ def _parts(path: Path) -> dict[str, tuple[str, ...]]:
     if not parts:
         held = ", ".join(" ".join(filter(None, (n, "×".join(map(str, s)), c))) for n, s, c in contents) or "no variables"
         raise RecordingFileError(
-            f"{path}: no recording in this MATLAB file (holds {held}); expected matrices of {' / '.join(_NUMBER_CLASSES)} "
+            f"{path}: no recording in this {ARRAY_FILES[kind_suffix(path)]} (holds {held}); expected matrices of {' / '.join(_NUMBER_CLASSES)} "
             "of 35 columns [q, q̇, τ, q⁺, q̇⁺] or 28 [q, q̇, q̈, τ], X<s> of 21 columns [q, q̇, q̈] with Y<s> of 7 [τ], "
             "or q, dq, tau of 7 columns each (and a time t), named as msg_adapters.table_columns reads them"
         )
     return parts
 
 
-def mat_parts(path: str | os.PathLike[str]) -> list[str]:
+def array_parts(path: str | os.PathLike[str]) -> list[str]:
     """The names of the recordings (parts) in the MATLAB file at path (module docstring); [] for a
     readable file that holds none (RecordingFileError for one that cannot be read)."""
     return list(_recordings(Path(path), _contents(Path(path))))
@@ -228,8 +257,20 @@ def _layout_arrays(path: Path, part: str, names: tuple[str, ...], data: dict) ->
 
 
 def _load(path: Path, names: tuple[str, ...]) -> dict[str, np.ndarray]:
-    """Variables ``names`` of the MATLAB file at path, each as MATLAB holds it (rows, columns)."""
+    """Variables ``names`` of the file of arrays at path, each as MATLAB holds it (rows, columns)."""
     from scipy.io import loadmat
+
+    if kind_suffix(path) != ".mat":
+        try:
+            if kind_suffix(path) == ".npz":
+                with open(path, "rb") as stream, np.load(stream, allow_pickle=False) as arrays:
+                    return {name: arrays[name] for name in names}
+            import h5py
+
+            with h5py.File(path, "r") as f:
+                return {name: f[name][()] for name in names}
+        except Exception as err:  # noqa: BLE001 - as in _plain_contents
+            raise RecordingFileError(f"{path}: not a readable {ARRAY_FILES[kind_suffix(path)]} ({err})") from err
 
     try:
         with warnings.catch_warnings():
@@ -252,7 +293,7 @@ def _load(path: Path, names: tuple[str, ...]) -> dict[str, np.ndarray]:
     return data
 
 
-def read_mat_recording(
+def read_array_recording(
     path: str | os.PathLike[str],
     part: str | None = None,
     *,
@@ -273,10 +314,10 @@ def read_mat_recording(
             )
         part = next(iter(parts))
     if part not in parts:
-        raise RecordingFileError(f"{path}: no recording {part!r} in this MATLAB file; it holds {', '.join(parts)}")
+        raise RecordingFileError(f"{path}: no recording {part!r} in this {ARRAY_FILES[kind_suffix(path)]}; it holds {', '.join(parts)}")
     label = f"{path}:{part}" if len(parts) > 1 else str(path)
     if arm is None:
-        raise RecordingFileError(f"{label}: a MATLAB file names no arm; pass --arm right|left")
+        raise RecordingFileError(f"{label}: a {ARRAY_FILES[kind_suffix(path)]} names no arm; pass --arm right|left")
     data = _load(path, parts[part])
     q, qd, effort = _layout_arrays(path, part, parts[part], data)
     columns = {

@@ -332,3 +332,39 @@ def test_one_variable_per_quantity_with_or_without_a_time(tmp_path: Path) -> Non
     savemat(path, {"q": q1, "qd": qd1, "tau_cmd": tau1})
     with pytest.raises(RecordingFileError, match=r"no recording in this MATLAB file \(holds q 400×7 double, qd 400×7 double, tau_cmd 400×7 double\)"):
         read_recording(path, arm="left")
+
+
+def test_numpy_and_hdf5_files_of_arrays_read_as_matlab_files(tmp_path: Path) -> None:
+    """The arrays of a MATLAB file saved by numpy (.npz) and h5py (.h5, rows as numpy writes them):
+    the same parts and recordings; unreadable ones refused by kind."""
+    import h5py
+
+    (q1, qd1, tau1), (q2, qd2, tau2) = arm_states(1), arm_states(2)
+    contents = {"X_train": np.hstack([q1, qd1, np.zeros_like(q1)]), "Y_train": tau1, "q_test": q2, "dq_test": qd2, "tau_test": tau2.T, "rate": np.array([100])}
+    mat = tmp_path / "set.mat"
+    savemat(mat, contents)
+    npz, h5 = tmp_path / "set.npz", tmp_path / "set.H5"
+    np.savez(npz, **contents)
+    with h5py.File(h5, "w") as f:
+        for name, values in contents.items():
+            f[name] = values
+        f.create_group("meta")
+    for path in (npz, h5):
+        parts = recordings_in(path)
+        assert [p.name for p in parts] == [f"{path.name}:train", f"{path.name}:test"]
+        for part, (q, qd, tau) in zip(parts, ((q1, qd1, tau1), (q2, qd2, tau2))):
+            assert_read(read_recording(part, arm="left", note=None), q, qd, tau)
+            mine = read_recording(Path(f"{mat}:{part.name.split(':')[1]}"), arm="left", note=None)
+            np.testing.assert_array_equal(read_recording(part, arm="left", note=None).q, mine.q)
+    with pytest.raises(RecordingFileError, match=r"set.npz:train: a NumPy .npz file names no arm; pass --arm"):
+        read_recording(f"{npz}:train")
+    np.savez(npz, torques=np.zeros((10, 6)))
+    with pytest.raises(RecordingFileError, match=r"no recording in this NumPy .npz file \(holds torques 10×6 double\)"):
+        read_recording(npz, arm="left")
+    np.savez(npz, q=np.array([{"a": 1}], dtype=object))
+    with pytest.raises(RecordingFileError, match=r"set.npz: not a readable NumPy .npz file \("):
+        read_recording(npz, arm="left")
+    for path, kind in ((npz, "NumPy .npz file"), (h5, "HDF5 file")):
+        path.write_bytes(b"PK\x03\x04" + bytes(100) if path == npz else b"\x89HDF\r\n\x1a\n" + bytes(100))
+        with pytest.raises(RecordingFileError, match=rf"{path.name}: not a readable {kind} \("):
+            read_recording(path, arm="left")
