@@ -114,7 +114,8 @@ def _plain_contents(path: Path) -> list[tuple[str, tuple[int, ...], str]]:
     try:
         if kind_suffix(path) == ".npz":
             with open(path, "rb") as stream, np.load(stream, allow_pickle=False) as arrays:  # numpy leaves a path open on errors
-                return [(name, arrays[name].shape, _numpy_class(arrays[name].dtype)) for name in arrays.files]
+                loaded = [(name, arrays[name]) for name in arrays.files]  # each array read once
+                return [(name, values.shape, _numpy_class(values.dtype)) for name, values in loaded]
         import h5py
 
         with h5py.File(path, "r") as f:
