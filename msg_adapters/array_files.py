@@ -46,6 +46,7 @@ import os
 import re
 import warnings
 from collections.abc import Iterator
+from contextlib import ExitStack, contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -107,21 +108,29 @@ def _numpy_class(dtype: np.dtype) -> str:
     return {"float64": "double", "float32": "single"}.get(np.dtype(dtype).name, np.dtype(dtype).name)
 
 
+@contextmanager
+def _plain_arrays(path: Path) -> Iterator[Any]:
+    """The arrays of a NumPy .npz or HDF5 file by name (an HDF5 group among them), open while the
+    block runs; any error of the file's, there or in the block, a RecordingFileError naming its kind."""
+    try:
+        with ExitStack() as stack:
+            if kind_suffix(path) == ".npz":
+                stream = stack.enter_context(open(path, "rb"))  # numpy leaves a path it opened open on errors
+                yield stack.enter_context(np.load(stream, allow_pickle=False))
+            else:
+                import h5py
+
+                yield stack.enter_context(h5py.File(path, "r"))
+    except Exception as err:  # noqa: BLE001 - numpy's and h5py's errors all mean "not a readable file of this kind"
+        raise RecordingFileError(f"{path}: not a readable {ARRAY_FILES[kind_suffix(path)]} ({err})") from err
+
+
 def _plain_contents(path: Path) -> list[tuple[str, tuple[int, ...], str]]:
     """(name, shape, class) of each array of a NumPy .npz or HDF5 file (top level; an HDF5 group is
     class "group"), shapes as stored (samples in rows or, transposed, in columns)."""
-    kind = ARRAY_FILES[kind_suffix(path)]
-    try:
-        if kind_suffix(path) == ".npz":
-            with open(path, "rb") as stream, np.load(stream, allow_pickle=False) as arrays:  # numpy leaves a path open on errors
-                loaded = [(name, arrays[name]) for name in arrays.files]  # each array read once
-                return [(name, values.shape, _numpy_class(values.dtype)) for name, values in loaded]
-        import h5py
-
-        with h5py.File(path, "r") as f:
-            return [(name, item.shape, _numpy_class(item.dtype)) if isinstance(item, h5py.Dataset) else (name, (), "group") for name, item in f.items()]
-    except Exception as err:  # noqa: BLE001 - numpy's and h5py's errors all mean "not a readable file of this kind"
-        raise RecordingFileError(f"{path}: not a readable {kind} ({err})") from err
+    with _plain_arrays(path) as arrays:
+        items = [(name, arrays[name]) for name in arrays]  # an .npz array read once
+        return [(name, item.shape, _numpy_class(item.dtype)) if hasattr(item, "dtype") else (name, (), "group") for name, item in items]
 
 
 def _contents(path: Path) -> list[tuple[str, tuple[int, ...], str]]:
@@ -262,17 +271,8 @@ def _load(path: Path, names: tuple[str, ...]) -> dict[str, np.ndarray]:
     from scipy.io import loadmat
 
     if kind_suffix(path) != ".mat":
-        try:
-            if kind_suffix(path) == ".npz":
-                with open(path, "rb") as stream, np.load(stream, allow_pickle=False) as arrays:
-                    return {name: arrays[name] for name in names}
-            import h5py
-
-            with h5py.File(path, "r") as f:
-                return {name: f[name][()] for name in names}
-        except Exception as err:  # noqa: BLE001 - as in _plain_contents
-            raise RecordingFileError(f"{path}: not a readable {ARRAY_FILES[kind_suffix(path)]} ({err})") from err
-
+        with _plain_arrays(path) as arrays:
+            return {name: arrays[name][()] for name in names}
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")

@@ -178,6 +178,11 @@ def _arm_columns(found: dict[tuple[str, str | None, str], JointColumn], side: st
     return None
 
 
+def _values(columns: dict[str, np.ndarray], chosen: Sequence[JointColumn]) -> np.ndarray:
+    """(N, k) float64, the chosen joint columns' values in the package's units (rad, rad/s, N·m)."""
+    return np.column_stack([columns[c.name] * c.scale for c in chosen]).astype(np.float64)
+
+
 def _missing(found: dict[tuple[str, str | None, str], JointColumn], named: str | None, side: str) -> tuple[str, ...]:
     """The names, as the table would write them, of the joint columns it lacks of ``side``'s arm
     in the naming ``named`` (the arm's name, or None: no arm)."""
@@ -197,8 +202,8 @@ def _other_arms(found: dict[tuple[str, str | None, str], JointColumn], columns: 
             continue
         effort = [found[key] for j in JOINT_SUFFIXES if (key := ("effort", other, j)) in found]
         others[other] = OtherArm(
-            np.column_stack([columns[c.name] * c.scale for c in q]),
-            np.column_stack([columns[c.name] for c in effort]) if effort else None,
+            _values(columns, q),
+            _values(columns, effort) if effort else None,
             _missing(found, other, other),
         )
     return others
@@ -321,7 +326,7 @@ def columns_recording(
     if arm is None:
         named = [f"{side}_{j}" for (quantity, side, j) in found if quantity == "position" and side and all((k, side, j) in found for k in QUANTITIES)]
         ranges = {
-            side: summed_range_rad(np.column_stack([columns[c.name] * c.scale for c in chosen[:7]]))
+            side: summed_range_rad(_values(columns, chosen[:7]))
             for side in ARM_SIDES
             if (chosen := _arm_columns(found, side, armless=False)) is not None
         }
@@ -330,7 +335,7 @@ def columns_recording(
     if chosen is None:
         named = arm if any(key[1] == arm for key in found) else None
         raise RecordingFileError(f"{path}: the {arm} arm needs columns missing here: {', '.join(_missing(found, named, arm))}")
-    q, qd, effort = (np.column_stack([columns[c.name] * c.scale for c in chosen[7 * k : 7 * k + 7]]).astype(np.float64) for k in range(3))
+    q, qd, effort = (_values(columns, chosen[7 * k : 7 * k + 7]) for k in range(3))
     screening = screen_samples(package_bounds(arm), q, qd, effort)
     error = screening.refusal()
     if error is not None:
