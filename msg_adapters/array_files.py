@@ -74,6 +74,9 @@ _MATRIX_LAYOUTS = {5 * _JOINTS: ("[q, q̇, τ, q⁺, q̇⁺]", 1, 2), 4 * _JOINT
 _NUMBER_CLASSES = ("double", "single")
 #: The part a dataset holds out as its test data, put last (what ``diagnose`` holds out by default).
 _TEST_PART = "test"
+#: The class given an HDF5 variable whose name is no UTF-8 text (h5py gives it as bytes): listed by
+#: a spelling of its bytes, never read (no part can name it).
+_NAME_NOT_TEXT = "name not UTF-8"
 
 
 def split_part(path: str | os.PathLike[str]) -> tuple[Path, str | None]:
@@ -91,6 +94,9 @@ def _hdf5_variables(path: Path) -> Iterator[tuple[str, tuple[int, ...], str, Any
 
     with h5py.File(path, "r") as f:
         for name, item in f.items():
+            if isinstance(name, bytes):
+                yield repr(name), (), _NAME_NOT_TEXT, item
+                continue
             if name.startswith("#"):  # "#refs#", "#subsystem#": MATLAB's own storage, no variable
                 continue
             cls = item.attrs.get("MATLAB_class", b"")
@@ -130,7 +136,12 @@ def _plain_contents(path: Path) -> list[tuple[str, tuple[int, ...], str]]:
     class "group"), shapes as stored (samples in rows or, transposed, in columns)."""
     with _plain_arrays(path) as arrays:
         items = [(name, arrays[name]) for name in arrays]  # an .npz array read once
-        return [(name, item.shape, _numpy_class(item.dtype)) if hasattr(item, "dtype") else (name, (), "group") for name, item in items]
+        return [
+            (repr(name), (), _NAME_NOT_TEXT) if isinstance(name, bytes)
+            else (name, item.shape, _numpy_class(item.dtype)) if hasattr(item, "dtype")
+            else (name, (), "group")
+            for name, item in items
+        ]
 
 
 def _contents(path: Path) -> list[tuple[str, tuple[int, ...], str]]:

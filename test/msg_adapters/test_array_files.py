@@ -368,3 +368,25 @@ def test_numpy_and_hdf5_files_of_arrays_read_as_matlab_files(tmp_path: Path) -> 
         path.write_bytes(b"PK\x03\x04" + bytes(100) if path == npz else b"\x89HDF\r\n\x1a\n" + bytes(100))
         with pytest.raises(RecordingFileError, match=rf"{path.name}: not a readable {kind} \("):
             read_recording(path, arm="left")
+
+
+def test_an_hdf5_variable_whose_name_is_no_text_is_listed_and_never_read(tmp_path: Path) -> None:
+    """HDF5 names are bytes; h5py gives one that is no UTF-8 as bytes (a fuzz run found the reader
+    failing on it): beside a recording it is passed over, alone it is named in the refusal."""
+    import h5py
+
+    q, qd, tau = arm_states()
+    h5, v73 = tmp_path / "odd.h5", tmp_path / "odd.mat"
+    with h5py.File(h5, "w") as f:
+        f["q"], f["dq"], f["tau"], f[b"q\xff"] = q, qd, tau, q
+    savemat_v73(v73, {"traj": forward_dynamics(q, qd, tau)})
+    with h5py.File(v73, "r+") as f:
+        f[b"\xfe"] = forward_dynamics(q, qd, tau).T
+    assert_read(read_recording(h5, arm="left", note=None), q, qd, tau)
+    assert_read(read_recording(v73, arm="left", note=None), q[:-1], qd[:-1], tau[:-1])
+    for path in (h5, v73):
+        with h5py.File(path, "r+") as f:
+            for name in [n for n in f if isinstance(n, str)]:
+                del f[name]
+        with pytest.raises(RecordingFileError, match=r"no recording in this (HDF5|MATLAB) file \(holds b'(q\\xff|\\xfe)' name not UTF-8\)"):
+            read_recording(path, arm="left")
