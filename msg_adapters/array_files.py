@@ -268,8 +268,11 @@ def _layout_arrays(path: Path, part: str, names: tuple[str, ...], data: dict) ->
     values = _matrix(path, data, names[0], columns)
     if columns == 5 * n and len(values) > 1:
         state, following = values[:-1, 3 * n :], values[1:, : 2 * n]
-        # equal as stored, to single precision's rounding; a few rows may differ (a sample lost)
-        if not np.mean(np.isclose(state, following, rtol=1e-6, atol=1e-9).all(axis=1)) > 0.5:
+        # equal as stored, to single precision's rounding; a few rows may differ (a sample lost);
+        # values beyond any robot's (±1e308) compare unequal, not with a warning
+        with np.errstate(over="ignore", invalid="ignore"):
+            next_state = np.mean(np.isclose(state, following, rtol=1e-6, atol=1e-9).all(axis=1)) > 0.5
+        if not next_state:
             raise RecordingFileError(
                 f"{path}:{part}: 35 columns, but columns 22-35 are not the next row's q and q̇ in most rows, "
                 f"so they are not the layout {what}; no other layout of 35 columns is known"

@@ -188,6 +188,33 @@ def write_rostopic_table(path: Path, states: dict, names: Sequence[str] = BAXTER
     return path
 
 
+def write_bagpy_table(path: Path, messages: Sequence[tuple], names_split: bool = False) -> Path:
+    """A topic's JointStates as bagpy's ``bagreader.message_by_topic`` writes them (bagpy/bagreader.py:
+    a csv.writer file; the header from the first message's fields, each tuple (a float64[] as genpy
+    decodes it) spread over ``<field>_<k>`` columns; the names, a list, in one field as Python prints
+    it, or spread like the arrays where ``names_split``). messages: (receive_ns, stamp_ns, names,
+    position, velocity, effort[, frame_id]) each."""
+    import csv
+
+    def fields(message: tuple) -> list[tuple[str, object]]:
+        receive_ns, stamp_ns, names, *arrays = message[:6]
+        frame_id = message[6] if len(message) > 6 else ""
+        secs, nsecs = divmod(int(stamp_ns), 1_000_000_000)
+        out = [("Time", int(receive_ns) // 1_000_000_000 + int(receive_ns) % 1_000_000_000 * 1e-9), ("header.seq", 0),
+               ("header.stamp.secs", secs), ("header.stamp.nsecs", nsecs), ("header.frame_id", frame_id)]
+        out += [(f"name_{k}", n) for k, n in enumerate(names)] if names_split else [("name", list(names))]
+        for field, values in zip(("position", "velocity", "effort"), arrays):
+            out += [(f"{field}_{k}", float(v)) for k, v in enumerate(values)]
+        return out
+
+    with open(path, "w", newline="") as f:
+        writer = csv.writer(f, delimiter=",")
+        writer.writerow([name for name, _ in fields(messages[0])])
+        for message in messages:
+            writer.writerow([value for _, value in fields(message)])
+    return path
+
+
 def savemat_v73(path: Path, variables: dict, track_order: bool = False) -> Path:
     """A MATLAB v7.3 file as MATLAB writes one: a 512-byte user block holding the MAT header (text,
     version 0x0200, "IM"), then HDF5 with one dataset per variable, column-major (a MATLAB N×M matrix

@@ -3,7 +3,8 @@ recording / model / effects / thresholds, or the package's own error — never a
 
 Inputs: random bytes; random text from the characters these formats are made of; and real files
 (the packaged arm model and effects example, a thresholds file as `calibrate` writes it, a table
-in each layout, a ``rostopic echo -p`` dump) with one part replaced, removed or added, written back as text.
+in each layout, a ``rostopic echo -p`` dump, a bagpy table) with one part replaced, removed or added,
+written back as text. The examples are the same every run (``test/conftest.py``).
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from repo_paths import REPO
-from recorded_bags import BAXTER_JOINTS, joint_states, rostopic_plot_header, rostopic_plot_row
+from recorded_bags import BAXTER_JOINTS, joint_states, rostopic_plot_header, rostopic_plot_row, write_bagpy_table
 
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.cli.simulate import load_spec
@@ -164,7 +165,14 @@ def _rostopic_table() -> str:
     return "\n".join([rostopic_plot_header(BAXTER_JOINTS), *rows]) + "\n"
 
 
-TABLES = [_table("baxter export", " "), _table("generic", ","), _rostopic_table()]
+def _bagpy_table() -> str:
+    """Joint states as bagpy writes them (every Baxter joint, 30 messages)."""
+    states = joint_states(30, names=BAXTER_JOINTS)
+    messages = [(t, t, BAXTER_JOINTS, *(states[f][k] for f in ("position", "velocity", "effort"))) for k, t in enumerate(states["stamps_ns"])]
+    return write_bagpy_table(_folder / "bagpy-source.csv", messages).read_text()
+
+
+TABLES = [_table("baxter export", " "), _table("generic", ","), _rostopic_table(), _bagpy_table()]
 tokens = st.one_of(
     st.floats(allow_nan=True, allow_infinity=True).map(repr),
     st.sampled_from(["", "nan", "inf", "-inf", "1e999", "-", "0x10", "1,5", "١", "NaN", "True", "stamp_ns", "ang_s0"]),
@@ -277,18 +285,19 @@ def test_table_reader_on_parquet_files_of_any_column_types() -> None:
     check()
 
 
-def test_rostopic_reader_on_random_rows_under_its_header() -> None:
-    """Random bytes or text never start with rostopic's header: here every file does, then rows of
-    random fields (numbers, names, empty), random lines, or random bytes."""
-    header = _rostopic_table().splitlines()[0]
-    names = st.sampled_from([*BAXTER_JOINTS, "l_gripper_l_finger_joint", "", "base"])
+@pytest.mark.parametrize("table", [_rostopic_table, _bagpy_table])
+def test_topic_table_reader_on_random_rows_under_its_header(table) -> None:
+    """Random bytes or text never start with rostopic's or bagpy's header: here every file does, then
+    rows of random fields (numbers, names, lists of names, empty), random lines, or random bytes."""
+    header = table().splitlines()[0]
+    names = st.sampled_from([*BAXTER_JOINTS, "l_gripper_l_finger_joint", "", "base", '"[\'left_s0\', \'left_s1\']"', "[]", "['a'"])
     row = st.lists(tokens | names, max_size=60).map(",".join)
     body = st.lists(row | st.text(max_size=40), max_size=12).map("\n".join).map(str.encode) | st.binary(max_size=300)
 
     @FUZZ
     @given(body, options)
     def check(data: bytes, option) -> None:
-        _read_any(_write("rostopic.csv", header.encode() + b"\n" + data), *option)
+        _read_any(_write("topic.csv", header.encode() + b"\n" + data), *option)
 
     check()
 
@@ -373,7 +382,7 @@ def test_array_file_readers_on_random_bytes_changed_files_and_any_arrays(suffix:
         else:
             with h5py.File(buffer, "w") as f:
                 for name, values in arrays.items():
-                    f[name] = np.asarray(values) if not isinstance(values, str) else values
+                    f[name] = np.asarray(values) if not isinstance(values, str) else np.bytes_(values.encode())  # h5py's variable-length text holds no NUL
         return buffer.getvalue()
 
     real = {k: v for k, v in loadmat(_write("real.mat", _mat_file())).items() if not k.startswith("__")}

@@ -1,4 +1,5 @@
-"""Joint states dumped by ROS 1's ``rostopic echo -p``: a CSV table with one message per row.
+"""Joint states of a ROS 1 topic dumped to a CSV table, one message per row: by ``rostopic echo -p``
+or by bagpy's ``bagreader.message_by_topic``.
 
 How many labs publish their Baxter recordings (``rostopic echo -p /robot/joint_states > run.csv``,
 or ``-b run.bag`` for a bag). The layout is rostopic's plot format:
@@ -19,13 +20,23 @@ sample of the arm (a joint missing, an array missing or of another length, a val
 number) are skipped and counted as a bag's malformed messages are
 (:func:`msg_adapters.bag_io.joint_state_recording`, which assembles the recording); rows without a
 readable time, in a line of their own.
+
+bagpy (``bagreader(run.bag).message_by_topic("/robot/joint_states")``, how a ROS 1 bag is most often
+turned into CSV in Python) writes a CSV file (quoted where a field holds a comma) whose header is
+also named after the first message: ``Time,header.seq,header.stamp.secs,header.stamp.nsecs,
+header.frame_id,name,position_0,…,velocity_0,…,effort_0,…``; per message: the bag's receive time (s),
+the header, the joint names as one field (the list as Python prints it, ``['head_nod', 'head_pan',
+…]``; ``name_0,…`` where they are split like the arrays), then the arrays. Its rows are read as
+rostopic's are, each by its own names.
 """
 
 from __future__ import annotations
 
+import ast
+import csv
 import os
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -38,7 +49,7 @@ from .bag_io import TopicData, joint_state_recording
 from .serialized_joint_states import JointStateBlock
 from .text_files import first_line, open_text, reading
 
-__all__ = ["is_rostopic_table", "read_rostopic_recording"]
+__all__ = ["is_topic_table", "read_topic_table_recording"]
 
 #: How the header line of ``rostopic echo -p`` starts, and the field of the first joint name.
 HEADER_START = "%time,"
@@ -48,20 +59,37 @@ STAMP_FIELD = "field.header.stamp"
 SNIFF_BYTES = 65536
 #: Rows decoded at a time.
 CHUNK_ROWS = 8192
-#: A header field of an array's element (``field.position3``): its array is the name without the index.
-_ARRAY_FIELD = re.compile(r"\d+$")
+#: bagpy's header: its first field, the fields of the joint names (one, or one per name), the header stamp's.
+BAGPY_TIME = "Time"
+BAGPY_NAMES = ("name", "name_0")
+BAGPY_STAMP = ("header.stamp.secs", "header.stamp.nsecs")
+#: A header field of an array's element (``field.position3``, bagpy's ``position_3``): its array is
+#: the name without the index.
+_ARRAY_FIELD = re.compile(r"_?\d+$")
 
 
-def is_rostopic_table(path: str | os.PathLike[str]) -> bool:
-    """Whether ``path`` is a file whose first line is the header of ``rostopic echo -p`` joint states."""
+def is_topic_table(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is a file whose first line is the header of joint states dumped by ``rostopic
+    echo -p`` or bagpy."""
     first = first_line(path, SNIFF_BYTES)
-    return first is not None and _header_fields(first) is not None
+    return first is not None and (_header_fields(first) is not None or _bagpy_fields(first) is not None)
 
 
 def _header_fields(line: str) -> list[str] | None:
     """The header's fields (a trailing comma or line end dropped), None if the line is no rostopic header."""
     fields = line.rstrip("\r\n,").split(",")
     return fields if line.startswith(HEADER_START) and NAMES_FIELD in fields else None
+
+
+def _bagpy_fields(line: str) -> list[str] | None:
+    """The fields of bagpy's header (trailing empty ones dropped), None if the line is none."""
+    try:
+        fields = next(csv.reader([line.rstrip("\r\n")]), [])
+    except csv.Error:  # a carriage return or a quote no CSV writer puts in a header
+        return None
+    while fields and not fields[-1]:
+        fields.pop()
+    return fields if fields[:1] == [BAGPY_TIME] and any(name in fields for name in BAGPY_NAMES) else None
 
 
 def _nanoseconds(text: str) -> int:
@@ -74,6 +102,24 @@ def _nanoseconds(text: str) -> int:
     if not abs(value) < 2.0**63:  # NaN too
         raise ValueError(f"not a time in ns: {text!r}")
     return round(value)
+
+
+def _seconds_ns(text: str) -> int:
+    """A time in s (bagpy's), in ns; ValueError for anything but a finite time int64 ns can hold."""
+    value = float(text) * 1e9
+    if not abs(value) < 2.0**63:  # NaN too
+        raise ValueError(f"not a time in s: {text!r}")
+    return round(value)
+
+
+def _listed_names(text: str) -> tuple[str, ...]:
+    """The joint names of bagpy's one field (a Python list or tuple of text); () for anything else."""
+    try:
+        names = ast.literal_eval(text)
+    except (ValueError, SyntaxError, MemoryError, RecursionError):
+        return ()
+    ok = isinstance(names, (list, tuple)) and all(isinstance(n, str) for n in names)
+    return tuple(names) if ok else ()
 
 
 def _is_number(text: str) -> bool:
@@ -202,64 +248,122 @@ def _frame_id_commas(rest: str, m: int, layout: _Layout) -> int:
     return k - m if k > m and len(fields) - k == layout.count * m + layout.trailing else 0
 
 
-def _topic_data(path: str | os.PathLike[str], note: Callable[[str], None] | None = None) -> TopicData:
-    """The joint-state messages of a ``rostopic echo -p`` table, as a bag topic's decoded messages.
-
-    Read in chunks of CHUNK_ROWS rows (an hour at 100 Hz is 0.5 GB of text). Rows whose time or
-    header stamp is not a time in ns (or that end before the names) are left out and counted in
-    one warning line said through ``note``.
-    """
-    path = Path(path)
+def _rostopic_rows(path: Path, header: list[str], lines: Iterable[str]) -> tuple[_Rows, int]:
+    """The rows of a ``rostopic echo -p`` table under its ``header``, and how many had no readable time."""
     unreadable = 0
     names: tuple[str, ...] = ()
+    names_at = header.index(NAMES_FIELD)
+    header_names = sum(1 for h in header if h.startswith("field.name"))
+    commas: int | None = None  # in the frame_id, from the first row
+    stamp_at = header.index(STAMP_FIELD) if STAMP_FIELD in header[:names_at] else None
+    rows = _Rows(_Layout.of_header(path, [h for h in header[names_at:] if not h.startswith("field.name")]))
+    for line in lines:
+        line = line.rstrip("\r\n,")  # a spreadsheet's re-save may end rows with a comma
+        if not line.strip():
+            continue
+        fields = line.split(",", names_at)
+        try:
+            if len(fields) <= names_at:
+                raise ValueError("too few fields")
+            time_ns = _nanoseconds(fields[0])
+            stamp_ns = _nanoseconds(fields[stamp_at]) if stamp_at is not None else 0
+        except ValueError:
+            unreadable += 1
+            continue
+        rest = fields[names_at]
+        if commas is None:
+            commas = _frame_id_commas(rest, header_names, rows.layout)
+        if commas:
+            rest = rest.split(",", commas)[-1] if rest.count(",") >= commas else ""
+        names, numbers = _split_names(rest, names)
+        rows.add(time_ns, stamp_ns, names, numbers)
+        if len(rows.times_ns) % CHUNK_ROWS == 0:
+            rows.flush()
+    return rows, unreadable
+
+
+def _csv_rows(lines: Iterable[str]) -> Iterator[list[str] | None]:
+    """The fields of each line, as csv reads them; None for a line csv cannot read (a field over
+    its size limit), and the lines after it read on."""
+    reader = csv.reader(lines)
+    while True:
+        try:
+            yield next(reader)
+        except StopIteration:
+            return
+        except csv.Error:
+            yield None
+
+
+def _bagpy_rows(path: Path, header: list[str], lines: Iterable[str]) -> tuple[_Rows, int]:
+    """The rows of a bagpy table under its ``header``, and how many had no readable time."""
+    unreadable = 0
+    names: tuple[str, ...] = ()
+    names_at = min(header.index(name) for name in BAGPY_NAMES if name in header)
+    listed = header[names_at] == BAGPY_NAMES[0]  # the names in one field
+    stamp_at = [header.index(h) for h in BAGPY_STAMP if h in header[:names_at]]
+    listing = None  # the last row's field of names, read once while it repeats
+    rows = _Rows(_Layout.of_header(path, [h for h in header[names_at:] if _ARRAY_FIELD.sub("", h) != "name"]))
+    for fields in _csv_rows(lines):
+        while fields and not fields[-1]:  # a spreadsheet's re-save may end rows with a comma
+            fields.pop()
+        if fields == []:
+            continue
+        try:
+            if fields is None or len(fields) <= names_at:
+                raise ValueError("too few fields")
+            time_ns = _seconds_ns(fields[0])
+            stamp_ns = _nanoseconds(str(int(fields[stamp_at[0]]) * 1_000_000_000 + int(fields[stamp_at[1]]))) if len(stamp_at) == 2 else 0
+        except ValueError:
+            unreadable += 1
+            continue
+        if listed:
+            if fields[names_at] != listing:
+                listing, names = fields[names_at], _listed_names(fields[names_at])
+            numbers = fields[names_at + 1 :]
+        else:
+            m = _leading_texts(fields[names_at:])
+            names, numbers = tuple(fields[names_at : names_at + m]), fields[names_at + m :]
+        rows.add(time_ns, stamp_ns, names, ",".join(numbers))
+        if len(rows.times_ns) % CHUNK_ROWS == 0:
+            rows.flush()
+    return rows, unreadable
+
+
+def _topic_data(path: str | os.PathLike[str], note: Callable[[str], None] | None = None) -> TopicData:
+    """The joint-state messages of a ``rostopic echo -p`` or bagpy table, as a bag topic's decoded messages.
+
+    Read in chunks of CHUNK_ROWS rows (an hour at 100 Hz is 0.5 GB of text). Rows whose time or
+    header stamp is not a time (or that end before the names, or that csv cannot read) are left out
+    and counted in one warning line said through ``note``.
+    """
+    path = Path(path)
     with reading(path), open_text(path) as f:
-        header = _header_fields(f.readline())
-        if header is None:
+        first = f.readline()
+        if (header := _header_fields(first)) is not None:
+            rows, unreadable = _rostopic_rows(path, header, f)
+        elif (header := _bagpy_fields(first)) is not None:
+            rows, unreadable = _bagpy_rows(path, header, f)
+        else:
             raise RecordingFileError(
-                f"{path}: not a table of rostopic echo -p joint states (its header must start {HEADER_START!r} and name {NAMES_FIELD})"
+                f"{path}: not a table of rostopic echo -p joint states (its header must start {HEADER_START!r} and name {NAMES_FIELD}) "
+                f"or of bagpy's (its header must start {BAGPY_TIME!r} and name {' or '.join(BAGPY_NAMES)})"
             )
-        names_at = header.index(NAMES_FIELD)
-        header_names = sum(1 for h in header if h.startswith("field.name"))
-        commas: int | None = None  # in the frame_id, from the first row
-        stamp_at = header.index(STAMP_FIELD) if STAMP_FIELD in header[:names_at] else None
-        rows = _Rows(_Layout.of_header(path, [h for h in header[names_at:] if not h.startswith("field.name")]))
-        for line in f:
-            line = line.rstrip("\r\n,")  # a spreadsheet's re-save may end rows with a comma
-            if not line.strip():
-                continue
-            fields = line.split(",", names_at)
-            try:
-                if len(fields) <= names_at:
-                    raise ValueError("too few fields")
-                time_ns = _nanoseconds(fields[0])
-                stamp_ns = _nanoseconds(fields[stamp_at]) if stamp_at is not None else 0
-            except ValueError:
-                unreadable += 1
-                continue
-            rest = fields[names_at]
-            if commas is None:
-                commas = _frame_id_commas(rest, header_names, rows.layout)
-            if commas:
-                rest = rest.split(",", commas)[-1] if rest.count(",") >= commas else ""
-            names, numbers = _split_names(rest, names)
-            rows.add(time_ns, stamp_ns, names, numbers)
-            if len(rows.times_ns) % CHUNK_ROWS == 0:
-                rows.flush()
     rows.flush()
     if not rows.times_ns:
-        raise RecordingFileError(f"{path}: no messages under the header line" + f" ({unreadable} rows without a time in ns)" * bool(unreadable))
+        raise RecordingFileError(f"{path}: no messages under the header line" + f" ({unreadable} rows without a readable time)" * bool(unreadable))
     if unreadable and note is not None:
         note(
-            f"WARNING: {path}: {unreadable} of {unreadable + len(rows.times_ns)} rows skipped: their time or header stamp "
-            "is not a time in ns, or they end before the joint names"
+            f"WARNING: {path}: {unreadable} of {unreadable + len(rows.times_ns)} rows skipped: no time, header stamp "
+            "and joint names could be read from them"
         )
-    return TopicData("rostopic table", np.array(rows.times_ns, dtype=np.int64), rows.blocks)
+    return TopicData("topic table", np.array(rows.times_ns, dtype=np.int64), rows.blocks)
 
 
-def read_rostopic_recording(
+def read_topic_table_recording(
     path: str | os.PathLike[str], *, arm: str | None = None, note: Callable[[str], None] | None = None
 ) -> Recording:
-    """One arm's recording from a ``rostopic echo -p`` table of joint states (module docstring).
+    """One arm's recording from a ``rostopic echo -p`` or bagpy table of joint states (module docstring).
 
     Stamps are the header stamps (the time column when every header stamp is zero); arm: "right"
     or "left", None to detect it as for a bag.

@@ -1,5 +1,6 @@
-"""Joint states dumped by ``rostopic echo -p``: written here the way rostopic prints them
-(``recorded_bags.rostopic_plot_row``), read back exactly through ``read_recording``."""
+"""Joint states dumped by ``rostopic echo -p`` and by bagpy: written here the way rostopic prints them
+(``recorded_bags.rostopic_plot_row``) and bagpy writes them (``recorded_bags.write_bagpy_table``),
+read back exactly through ``read_recording``."""
 
 from __future__ import annotations
 
@@ -9,15 +10,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from recorded_bags import BAXTER_JOINTS, columns, joint_states, rostopic_plot_header, rostopic_plot_row, write_rostopic_table
+from recorded_bags import BAXTER_JOINTS, columns, joint_states, rostopic_plot_header, rostopic_plot_row, write_bagpy_table, write_rostopic_table
 from repo_paths import REPO
 
 from baxter_dynamics_ros.core.joints import arm_joint_names
 from baxter_dynamics_ros.core.samples import SkipReason
 from baxter_dynamics_ros.errors import RecordingFileError
 from msg_adapters.recording_files import read_recording
-from msg_adapters import rostopic_table
-from msg_adapters.rostopic_table import is_rostopic_table
+from msg_adapters import topic_tables
+from msg_adapters.topic_tables import is_topic_table
 
 N = 300
 
@@ -32,7 +33,7 @@ def assert_arm(rec, states: dict, side: str, stamps_ns: np.ndarray | None = None
 def test_a_rostopic_table_reads_back_exactly_with_the_moving_arm_detected(tmp_path: Path) -> None:
     states = joint_states(N)
     path = write_rostopic_table(tmp_path / "joint_states.csv", states, receive_delay_ns=2_500_000)
-    assert is_rostopic_table(path)
+    assert is_topic_table(path)
     notes: list[str] = []
     assert_arm(read_recording(path, note=notes.append), states, "right")
     assert_arm(read_recording(path, arm="left", note=notes.append), states, "left")
@@ -47,7 +48,7 @@ def test_rows_of_other_layouts_are_matched_by_name_and_the_rest_skipped_and_coun
     truncated last line (a dump cut short): the arm's samples read exactly, the rest counted; the
     same when the reader decodes a few rows at a time."""
     if chunk_rows is not None:
-        monkeypatch.setattr(rostopic_table, "CHUNK_ROWS", chunk_rows)
+        monkeypatch.setattr(topic_tables, "CHUNK_ROWS", chunk_rows)
     states = joint_states(N)
     rng = np.random.default_rng(3)
     lines = [rostopic_plot_header(BAXTER_JOINTS)]
@@ -119,7 +120,7 @@ def test_bad_rostopic_tables_are_refused_in_one_line(tmp_path: Path) -> None:
         read_recording(only_header, note=None)
     binary = tmp_path / "binary.csv"
     binary.write_bytes(header.encode() + b"\n\xff\xfe\x00garbage\n")
-    assert is_rostopic_table(binary)
+    assert is_topic_table(binary)
     with pytest.raises(RecordingFileError, match="not a text table"):
         read_recording(binary, note=None)
     gripper_only = tmp_path / "gripper.csv"
@@ -158,7 +159,7 @@ def test_rows_without_a_time_are_skipped_and_counted_on_their_own(tmp_path: Path
     rec = read_recording(path, note=notes.append)
     np.testing.assert_array_equal(rec.stamps_ns, states["stamps_ns"][keep])
     np.testing.assert_array_equal(rec.q, columns(states, arm_joint_names("right"))[0][keep])
-    assert notes == [f"WARNING: {path}: 3 of 41 rows skipped: their time or header stamp is not a time in ns, or they end before the joint names"]
+    assert notes == [f"WARNING: {path}: 3 of 41 rows skipped: no time, header stamp and joint names could be read from them"]
 
 
 #: baxter_core_msgs/SEAJointState's arrays: baxter_common's definition, and a later one with 11.
@@ -222,7 +223,7 @@ TYPED_DUMP = (
 def test_a_dump_typed_out_as_rostopic_prints_it(tmp_path: Path) -> None:
     path = tmp_path / "typed.csv"
     path.write_bytes(TYPED_DUMP.encode("utf-8"))
-    assert is_rostopic_table(path)
+    assert is_topic_table(path)
     notes: list[str] = []
     rec = read_recording(path, note=notes.append)
     assert rec.side == "left" and rec.joint_names == tuple(f"left_{j}" for j in ("s0", "s1", "e0", "e1", "w0", "w1", "w2"))
@@ -251,3 +252,68 @@ def test_when_no_row_is_a_whole_sample_the_error_says_so(tmp_path: Path) -> None
     path.write_text("\n".join(lines) + "\n")
     with pytest.raises(RecordingFileError, match=r"no message in this table has position, velocity and effort, one entry per name \(20 messages; joint names found: head_nod"):
         read_recording(path, note=None)
+
+
+def bagpy_messages(states: dict, receive_delay_ns: int = 0) -> list[tuple]:
+    """One message of every Baxter joint per sample of ``states``, received receive_delay_ns late."""
+    arrays = [states[f] for f in ("position", "velocity", "effort")]
+    return [(int(t) + receive_delay_ns, int(t), BAXTER_JOINTS, *(a[k] for a in arrays)) for k, t in enumerate(states["stamps_ns"])]
+
+
+@pytest.mark.parametrize("names_split", [False, True])
+def test_a_bagpy_table_reads_back_exactly_by_its_header_stamps(tmp_path: Path, names_split: bool) -> None:
+    """bagpy's CSV of /robot/joint_states: the arm found by name, stamps from header.stamp.secs and
+    .nsecs (the Time column is the receive time, here 2.5 ms later), values to the last bit."""
+    states = joint_states(N)
+    path = write_bagpy_table(tmp_path / "robot-joint_states.csv", bagpy_messages(states, 2_500_000), names_split=names_split)
+    assert is_topic_table(path) and path.read_text().startswith("Time,header.seq,header.stamp.secs,header.stamp.nsecs,header.frame_id,name")
+    notes: list[str] = []
+    assert_arm(read_recording(path, note=notes.append), states, "right")
+    assert_arm(read_recording(path, arm="left", note=notes.append), states, "left")
+    assert notes == []
+
+
+def test_a_bagpy_table_of_gripper_messages_frame_ids_and_bad_rows(tmp_path: Path) -> None:
+    """The topic's first message a gripper's (the header names 2 joints), frame_ids with commas
+    (quoted), rows in shuffled order of names, a row without efforts, a names field that is no list,
+    rows without a time: the arm's samples read exactly, the rest skipped and counted."""
+    states = joint_states(60)
+    gripper = ("l_gripper_l_finger_joint", "l_gripper_r_finger_joint")
+    messages: list[tuple] = [(int(states["stamps_ns"][0]) - 1, int(states["stamps_ns"][0]) - 1, gripper, [0.01, 0.01], [0.0, 0.0], [0.0, 0.0])]
+    order = np.arange(len(BAXTER_JOINTS))[::-1]
+    for k, message in enumerate(bagpy_messages(states)):
+        if k % 4 == 1:  # the names in another order
+            message = (*message[:2], tuple(BAXTER_JOINTS[i] for i in order), *(a[order] for a in message[3:6]))
+        messages.append((*message, "base, link" if k % 3 == 0 else ""))
+        if k % 10 == 5:
+            messages.append((message[0] + 1, message[1] + 1, gripper, [0.02, 0.02], [0.0, 0.0], [0.0, 0.0]))
+    path = write_bagpy_table(tmp_path / "joint_states.csv", messages)
+    lines = path.read_text().splitlines()
+    assert lines[0].endswith("effort_0,effort_1") and '"base, link"' in lines[2]
+    last = lines[-1].split(",")
+    lines += [",".join(["1.5e9", *last[1:5], "not a list", *last[-3 * len(BAXTER_JOINTS):]])]  # a names field no list
+    lines += [",".join([*lines[3].split(",")[:-len(BAXTER_JOINTS)], *lines[3].split(",")[-len(BAXTER_JOINTS):][:0]])]  # no efforts
+    lines += ["nan" + lines[3][lines[3].index(","):], "", "12"]  # no time; an empty line; a row that ends before the names
+    stamp = lines[3].split(",")
+    lines += [",".join([*stamp[:2], "1" + "0" * 25, *stamp[3:]]), '"' + "x" * 200_000 + '"']  # a stamp beyond int64 ns; a field beyond csv's limit
+    path.write_text("\n".join(lines) + "\n")
+    notes: list[str] = []
+    assert_arm(read_recording(path, note=notes.append), states, "right")
+    assert notes == [
+        f"WARNING: {path}: 4 of {len(messages) + 6} rows skipped: no time, header stamp and joint names could be read from them",
+        f"WARNING: {path}: {len(messages) - 60 + 2} of {len(messages) + 2} messages in this table skipped as malformed "
+        f"({len(messages) - 60 + 1} {SkipReason.MISSING_JOINT.value}, 1 {SkipReason.ARRAY_LENGTH.value})",
+    ]
+
+
+def test_process_reads_a_bagpy_table_from_the_command_line(tmp_path: Path) -> None:
+    states = joint_states(N)
+    path = write_bagpy_table(tmp_path / "robot-joint_states.csv", bagpy_messages(states, 1_000_000))
+    out = tmp_path / "out.csv"
+    done = subprocess.run(
+        [str(Path(sys.executable).with_name("baxter-dynamics")), "process", str(path), "--out", str(out)],
+        capture_output=True, text=True, cwd=REPO,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stderr == ""
+    assert out.read_text().splitlines()[0].startswith("stamp_ns,") and len(out.read_text().splitlines()) == N + 1
