@@ -55,7 +55,7 @@ from baxter_dynamics_ros.core.recording import (
 )  # fmt: skip
 from baxter_dynamics_ros.errors import RecordingFileError
 
-from .table_columns import QUANTITIES, JointColumn, TimeColumn, joint_columns, time_columns
+from .table_columns import QUANTITIES, JointColumn, TimeColumn, bare_joint_names, joint_columns, time_columns
 from .text_files import kind_suffix, read_text
 
 __all__ = ["RATE_TOLERANCE", "Note", "columns_recording", "joint_state_columns", "read_table_recording", "write_processed_table", "write_table"]
@@ -315,10 +315,13 @@ def columns_recording(
     except RecordingFileError as err:
         raise RecordingFileError(f"{path}: {err}") from err
     if not found:
+        bare = bare_joint_names(columns)
         raise RecordingFileError(
             f"{path}: no joint columns; expected a position, velocity and effort column per joint, named as "
             f"ang_/vel_/torq_<joint> (Baxter export), position_/velocity_/effort_<joint> (generic), <joint>_pos, "
             f"q1 … q7 and the like (<joint>: s0 … w2, left_s0 …), found: {', '.join(columns) or 'none'}"
+            + f"; {', '.join(bare[:3])}{' …' * (len(bare) > 3)} name a joint but not what it holds (as baxter_examples' "
+            "joint_recorder.py names positions, the only quantity it records): the dynamics need each joint's effort too" * bool(bare)
         )
     if arm is None and all((quantity, None, j) in found for quantity in QUANTITIES for j in JOINT_SUFFIXES):
         example = " ".join(found[(quantity, None, "s0")].name for quantity in QUANTITIES)

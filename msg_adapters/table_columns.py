@@ -36,7 +36,7 @@ from dataclasses import dataclass
 from baxter_dynamics_ros.core.joints import JOINT_SUFFIXES
 from baxter_dynamics_ros.errors import RecordingFileError
 
-__all__ = ["QUANTITIES", "JointColumn", "TimeColumn", "block_meaning", "joint_columns", "time_columns"]
+__all__ = ["QUANTITIES", "JointColumn", "TimeColumn", "bare_joint_names", "block_meaning", "joint_columns", "time_columns"]
 
 #: What a joint column holds, in the order a recording keeps them (rad, rad/s, N·m).
 QUANTITIES = ("position", "velocity", "effort")
@@ -168,6 +168,17 @@ def joint_columns(names: Iterable[str]) -> dict[tuple[str, str | None, str], Joi
             where = f"{side}_{joint}" if side else joint
             raise RecordingFileError(f"columns {out[key].name} and {name} both hold the {quantity} of {where}; keep one")
         out[key] = JointColumn(name, quantity, side, joint, scale, span)
+    return out
+
+
+def bare_joint_names(names: Iterable[str]) -> list[str]:
+    """The column names that name one of Baxter's joints and nothing it holds (``left_s0``,
+    ``s0 [rad]``): read as no quantity, as baxter_examples' joint_recorder.py names its positions."""
+    out = []
+    for name in names:
+        side, joint, _, rest = _joint_word(_words(name))
+        if joint is not None and all(word in _NEUTRAL or word in _SI_UNITS or word in _DEGREE_UNITS for word, _ in rest):
+            out.append(name)
     return out
 
 

@@ -12,7 +12,7 @@ import pytest
 from baxter_dynamics_ros.core.joints import JOINT_SUFFIXES
 from baxter_dynamics_ros.errors import RecordingFileError
 from msg_adapters.recording_files import read_recording
-from msg_adapters.table_columns import joint_columns, time_columns
+from msg_adapters.table_columns import bare_joint_names, joint_columns, time_columns
 
 
 @pytest.fixture(scope="module")
@@ -154,3 +154,13 @@ def test_empty_fields_are_missing_values_and_their_rows_left_out(tmp_path: Path,
     (tmp_path / "words.csv").write_text("__time,a\n1,\n2,x\n")
     with pytest.raises(RecordingFileError, match="not a table of numbers"):
         read_recording(tmp_path / "words.csv", note=None)
+
+
+def test_positions_alone_under_bare_joint_names_are_refused_saying_so(tmp_path: Path, sim) -> None:
+    """baxter_examples' joint_recorder.py: ``time,left_s0,…,left_gripper,right_s0,…`` of positions
+    only; the refusal names the columns and what is missing."""
+    assert bare_joint_names(["time", "left_s0", "S1 [rad]", "left_gripper", "ang_s0", "gravity_left_s0", "w2"]) == ["left_s0", "S1 [rad]", "w2"]
+    names = [f"{side}_{j}" for side in ("left", "right") for j in (*JOINT_SUFFIXES, "gripper")]
+    columns = {"time": np.arange(len(sim.q)) / 200.0} | {n: sim.q[:, k % 7] for k, n in enumerate(names)}
+    with pytest.raises(RecordingFileError, match=r"no joint columns; .*; left_s0, left_s1, left_e0 … name a joint but not what it holds .*need each joint's effort"):
+        read_recording(write(tmp_path / "joints.txt", columns), note=None)
