@@ -12,7 +12,7 @@
   without a byte-order mark, and what kind of file a path holds;
 - :mod:`msg_adapters.table_columns` — what a table's column names say: each joint's position,
   velocity and effort column, and the time, however a dataset names them;
-- :mod:`msg_adapters.topic_tables` — joint states of a ROS 1 topic dumped by ``rostopic echo -p`` or bagpy;
+- :mod:`msg_adapters.topic_dumps` — joint states of a ROS topic dumped to text: ``rostopic echo -p``, bagpy, echoed messages;
 - :mod:`msg_adapters.array_files` — files of named arrays (MATLAB, NumPy .npz, HDF5) holding
   recordings, as robot-learning datasets publish them;
 - :mod:`msg_adapters.recording_files` — which reader or writer a path calls for.
@@ -25,6 +25,6 @@ Submodules are imported on demand (``from msg_adapters.bag_io import ...``): onl
 from __future__ import annotations
 
 __all__ = [
-    "array_files", "bag_io", "csv_io", "dynamics_services", "joint_state", "mcap_writer", "recording_files", "topic_tables", "serialized_joint_states",
+    "array_files", "bag_io", "csv_io", "dynamics_services", "joint_state", "mcap_writer", "recording_files", "topic_dumps", "serialized_joint_states",
     "table_columns", "text_files",
 ]  # fmt: skip

@@ -3,7 +3,7 @@
 Inputs, by what their suffix says they hold (:func:`~msg_adapters.text_files.kind_suffix`): ``.csv``,
 ``.txt``, ``.tsv``, ``.dat`` (each also compressed: ``.gz``, ``.bz2``, ``.xz`` after it;
 :mod:`msg_adapters.text_files`) and ``.parquet`` are tables (:mod:`msg_adapters.csv_io`; joint states
-dumped by ``rostopic echo -p`` or bagpy, recognised by their header: :mod:`msg_adapters.topic_tables`);
+dumped to text by ``rostopic echo -p``, bagpy or echo, recognised by their first line: :mod:`msg_adapters.topic_dumps`);
 ``.mat``, ``.npz``, ``.h5`` and ``.hdf5`` are files of arrays of one or more recordings,
 ``<file>.mat:<part>`` naming one (:mod:`msg_adapters.array_files`); ``.bag``, ``.mcap``, ``.db3`` and folders are bags
 (:mod:`msg_adapters.bag_io`; a ROS 2 bag is a folder); a file of any other kind is refused, naming the kinds.
@@ -34,7 +34,7 @@ from baxter_dynamics_ros.errors import RecordingError, RecordingFileError
 from .bag_io import DEFAULT_TOPIC, Progress, read_bag_recording, write_joint_state_bag, write_processed_bag
 from .csv_io import Note, joint_state_columns, read_table_recording, write_processed_table, write_table
 from .array_files import ARRAY_FILES, array_parts, read_array_recording, split_part
-from .topic_tables import is_topic_table, read_topic_table_recording
+from .topic_dumps import is_topic_dump, read_topic_dump_recording
 from .text_files import COMPRESSION_SUFFIXES, TEXT_SUFFIXES, kind_suffix
 
 __all__ = [
@@ -82,8 +82,8 @@ def read_recording(
         if kind in ARRAY_FILES:
             return read_array_recording(path, part, arm=arm, rate_hz=rate_hz, note=note)
         if kind in TABLE_SUFFIXES:
-            if is_topic_table(path):
-                return read_topic_table_recording(path, arm=arm, note=note)
+            if is_topic_dump(path):
+                return read_topic_dump_recording(path, arm=arm, note=note)
             return read_table_recording(path, arm=arm, rate_hz=rate_hz, note=note)
         if path.is_file() and kind not in BAG_SUFFIXES:
             raise RecordingError(f"not a kind of recording this package reads ({kind or 'no suffix'}); it reads {INPUT_KINDS}")

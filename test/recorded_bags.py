@@ -245,3 +245,22 @@ def savemat_v73(path: Path, variables: dict, track_order: bool = False) -> Path:
     with open(path, "r+b") as f:
         f.write(header)
     return path
+
+
+def echo_message(stamp_ns: int, names: Sequence[str], *arrays, ros2: bool = False, frame_id: str = "") -> str:
+    """One JointState as ``rostopic echo`` (ROS 1: lists in brackets, ``secs``/``nsecs``) or ``ros2
+    topic echo`` (one ``- item`` per line, ``sec``/``nanosec``, NaN as YAML's ``.nan``) prints it, its
+    ``---`` line after it; arrays: position, velocity, effort (each may be empty: ``[]``)."""
+    secs, nsecs = divmod(int(stamp_ns), 1_000_000_000)
+    if ros2:
+        lines = ["header:", "  stamp:", f"    sec: {secs}", f"    nanosec: {nsecs}", f"  frame_id: '{frame_id}'"]
+    else:
+        lines = ["header: ", "  seq: 0", "  stamp: ", f"    secs: {secs}", f"    nsecs: {nsecs}", f"  frame_id: '{frame_id}'"]
+    fields = {"name": list(names)}
+    fields |= {f: [".nan" if ros2 and np.isnan(v) else repr(float(v)) for v in values] for f, values in zip(("position", "velocity", "effort"), arrays)}
+    for field, items in fields.items():
+        if ros2 and items:
+            lines += [f"{field}:", *(f"- {item}" for item in items)]
+        else:
+            lines += [f"{field}: [{', '.join(items)}]"]
+    return "\n".join(lines + ["---"])

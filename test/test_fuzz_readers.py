@@ -3,7 +3,7 @@ recording / model / effects / thresholds, or the package's own error — never a
 
 Inputs: random bytes; random text from the characters these formats are made of; and real files
 (the packaged arm model and effects example, a thresholds file as `calibrate` writes it, a table
-in each layout, a ``rostopic echo -p`` dump, a bagpy table) with one part replaced, removed or added,
+in each layout, a ``rostopic echo -p`` dump, a bagpy table, echoed messages) with one part replaced, removed or added,
 written back as text. The examples are the same every run (``test/conftest.py``).
 """
 
@@ -19,7 +19,7 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from repo_paths import REPO
-from recorded_bags import BAXTER_JOINTS, joint_states, rostopic_plot_header, rostopic_plot_row, write_bagpy_table
+from recorded_bags import BAXTER_JOINTS, echo_message, joint_states, rostopic_plot_header, rostopic_plot_row, write_bagpy_table
 
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.cli.simulate import load_spec
@@ -172,7 +172,14 @@ def _bagpy_table() -> str:
     return write_bagpy_table(_folder / "bagpy-source.csv", messages).read_text()
 
 
-TABLES = [_table("baxter export", " "), _table("generic", ","), _rostopic_table(), _bagpy_table()]
+def _echo_dump(ros2: bool) -> str:
+    """Joint states as ``rostopic echo`` or ``ros2 topic echo`` prints them (every Baxter joint, 30 messages)."""
+    states = joint_states(30, names=BAXTER_JOINTS)
+    arrays = [states[f] for f in ("position", "velocity", "effort")]
+    return "\n".join(echo_message(t, BAXTER_JOINTS, *(a[k] for a in arrays), ros2=ros2) for k, t in enumerate(states["stamps_ns"])) + "\n"
+
+
+TABLES = [_table("baxter export", " "), _table("generic", ","), _rostopic_table(), _bagpy_table(), _echo_dump(False), _echo_dump(True)]
 tokens = st.one_of(
     st.floats(allow_nan=True, allow_infinity=True).map(repr),
     st.sampled_from(["", "nan", "inf", "-inf", "1e999", "-", "0x10", "1,5", "١", "NaN", "True", "stamp_ns", "ang_s0"]),
@@ -285,13 +292,16 @@ def test_table_reader_on_parquet_files_of_any_column_types() -> None:
     check()
 
 
-@pytest.mark.parametrize("table", [_rostopic_table, _bagpy_table])
-def test_topic_table_reader_on_random_rows_under_its_header(table) -> None:
-    """Random bytes or text never start with rostopic's or bagpy's header: here every file does, then
-    rows of random fields (numbers, names, lists of names, empty), random lines, or random bytes."""
-    header = table().splitlines()[0]
-    names = st.sampled_from([*BAXTER_JOINTS, "l_gripper_l_finger_joint", "", "base", '"[\'left_s0\', \'left_s1\']"', "[]", "['a'"])
-    row = st.lists(tokens | names, max_size=60).map(",".join)
+@pytest.mark.parametrize("dump", [_rostopic_table, _bagpy_table, lambda: _echo_dump(True)], ids=["rostopic", "bagpy", "echo"])
+def test_topic_dump_reader_on_random_rows_under_its_header(dump) -> None:
+    """Random bytes or text never start with rostopic's or bagpy's header or an echo's first line:
+    here every file does, then rows of random fields (numbers, names, lists of names, an echo's
+    fields and list items, empty), random lines, or random bytes."""
+    header = dump().splitlines()[0]
+    names = st.sampled_from(
+        [*BAXTER_JOINTS, "l_gripper_l_finger_joint", "", "base", '"[\'left_s0\', \'left_s1\']"', "[]", "['a'", "---", "name:", "- left_s0", "  sec: 1", "  nanosec: 9", "position: [1"]
+    )
+    row = st.tuples(st.lists(tokens | names, max_size=60), st.sampled_from([",", "\n", " "])).map(lambda r: r[1].join(r[0]))
     body = st.lists(row | st.text(max_size=40), max_size=12).map("\n".join).map(str.encode) | st.binary(max_size=300)
 
     @FUZZ

@@ -1,5 +1,6 @@
-"""Joint states of a ROS 1 topic dumped to a CSV table, one message per row: by ``rostopic echo -p``
-or by bagpy's ``bagreader.message_by_topic``.
+"""Joint states of a ROS topic dumped to text, one message after another: the CSV tables of
+``rostopic echo -p`` and of bagpy's ``bagreader.message_by_topic``, and the messages (YAML) that
+``rostopic echo`` and ``ros2 topic echo`` print.
 
 How many labs publish their Baxter recordings (``rostopic echo -p /robot/joint_states > run.csv``,
 or ``-b run.bag`` for a bag). The layout is rostopic's plot format:
@@ -28,6 +29,14 @@ header.frame_id,name,position_0,…,velocity_0,…,effort_0,…``; per message: 
 the header, the joint names as one field (the list as Python prints it, ``['head_nod', 'head_pan',
 …]``; ``name_0,…`` where they are split like the arrays), then the arrays. Its rows are read as
 rostopic's are, each by its own names.
+
+``rostopic echo /robot/joint_states > run.txt`` (ROS 1) and ``ros2 topic echo`` print each message
+as YAML, ``---`` after it: ``header:`` first (its ``stamp``'s ``secs``/``nsecs``, ROS 2's ``sec``/
+``nanosec``), then ``name``, ``position``, ``velocity``, ``effort``, each a list in brackets
+(``[head_nod, head_pan, …]``) or one ``- item`` per line (ROS 2's default). A file whose first line
+is ``header:`` is read so, message by message, line by line (no YAML parser: an hour of messages is
+tens of millions of lines), the header stamps as times, and messages that are no sample of the arm
+skipped and counted as above.
 """
 
 from __future__ import annotations
@@ -49,7 +58,7 @@ from .bag_io import TopicData, joint_state_recording
 from .serialized_joint_states import JointStateBlock
 from .text_files import first_line, open_text, reading
 
-__all__ = ["is_topic_table", "read_topic_table_recording"]
+__all__ = ["is_topic_dump", "read_topic_dump_recording"]
 
 #: How the header line of ``rostopic echo -p`` starts, and the field of the first joint name.
 HEADER_START = "%time,"
@@ -63,16 +72,31 @@ CHUNK_ROWS = 8192
 BAGPY_TIME = "Time"
 BAGPY_NAMES = ("name", "name_0")
 BAGPY_STAMP = ("header.stamp.secs", "header.stamp.nsecs")
+#: The first line of messages as ``rostopic echo`` and ``ros2 topic echo`` print them; the line after each.
+ECHO_START = "header:"
+ECHO_END = "---"
+#: Their stamp's fields of seconds and nanoseconds (ROS 1's, ROS 2's), and the arrays read: q, q̇,
+#: effort of a JointState, or of a SEAJointState (its actual_* arrays, where the message has them).
+_ECHO_SECONDS = frozenset({"secs", "sec"})
+_ECHO_NANOSECONDS = frozenset({"nsecs", "nanosec"})
+_ECHO_ARRAYS = (("position", "velocity", "effort"), ("actual_position", "actual_velocity", "actual_effort"))
+#: YAML's spellings of floats that Python's float() does not read (ROS 2 prints NaN as .nan).
+_YAML_FLOATS = {".nan": "nan", ".inf": "inf", "+.inf": "inf", "-.inf": "-inf"}
 #: A header field of an array's element (``field.position3``, bagpy's ``position_3``): its array is
 #: the name without the index.
 _ARRAY_FIELD = re.compile(r"_?\d+$")
 
 
-def is_topic_table(path: str | os.PathLike[str]) -> bool:
+def is_topic_dump(path: str | os.PathLike[str]) -> bool:
     """Whether ``path`` is a file whose first line is the header of joint states dumped by ``rostopic
-    echo -p`` or bagpy."""
+    echo -p`` or bagpy, or the first line of messages echoed (module docstring)."""
     first = first_line(path, SNIFF_BYTES)
-    return first is not None and (_header_fields(first) is not None or _bagpy_fields(first) is not None)
+    return first is not None and (_header_fields(first) is not None or _bagpy_fields(first) is not None or _is_echo(first))
+
+
+def _is_echo(line: str) -> bool:
+    """Whether a file's first line is that of echoed messages."""
+    return line.rstrip() == ECHO_START
 
 
 def _header_fields(line: str) -> list[str] | None:
@@ -330,43 +354,131 @@ def _bagpy_rows(path: Path, header: list[str], lines: Iterable[str]) -> tuple[_R
     return rows, unreadable
 
 
-def _topic_data(path: str | os.PathLike[str], note: Callable[[str], None] | None = None) -> TopicData:
-    """The joint-state messages of a ``rostopic echo -p`` or bagpy table, as a bag topic's decoded messages.
+def _unquoted(text: str) -> str:
+    """A YAML scalar as printed, without the quotes echo puts around some (``'left_s0'``)."""
+    text = text.strip()
+    return text[1:-1] if len(text) >= 2 and text[0] == text[-1] and text[0] in "'\"" else text
 
-    Read in chunks of CHUNK_ROWS rows (an hour at 100 Hz is 0.5 GB of text). Rows whose time or
-    header stamp is not a time (or that end before the names, or that csv cannot read) are left out
-    and counted in one warning line said through ``note``.
+
+def _echo_items(value: str) -> list[str] | None:
+    """The items of a list echo prints in brackets (``[a, b]``), None for a value that is none."""
+    if not (value.startswith("[") and value.endswith("]")):
+        return None
+    inner = value[1:-1].strip()
+    return [_unquoted(item) for item in inner.split(",")] if inner else []
+
+
+class _EchoMessage:
+    """The fields of one echoed message read so far: its stamp's, and its lists by name."""
+
+    def __init__(self) -> None:
+        self.lines = 0
+        self.seconds: str | None = None
+        self.nanoseconds: str | None = None
+        self.lists: dict[str, list[str]] = {}
+        self.block: list[str] | None = None  # the list whose ``- item`` lines follow
+
+    def line(self, line: str) -> None:
+        """Take one line of the message."""
+        self.lines += 1
+        text = line.strip()
+        if text.startswith("-") and text[1:2] in ("", " "):  # an item of a list in block style
+            if self.block is not None:
+                self.block.append(_unquoted(text[1:]))
+            return
+        field, _, value = text.partition(":")
+        value = value.strip()
+        if line[:1] not in (" ", "\t"):  # a field of the message's own
+            self.block = self.lists.setdefault(field, []) if not value else None
+            items = _echo_items(value)
+            if items is not None:
+                self.lists[field] = items
+        elif field in _ECHO_SECONDS:
+            self.seconds = value
+        elif field in _ECHO_NANOSECONDS:
+            self.nanoseconds = value
+
+    def row(self) -> tuple[int, tuple[str, ...], str]:
+        """(stamp ns, names, the text of its q, q̇ and effort numbers, comma-separated); ValueError
+        where the stamp is no time."""
+        stamp_ns = _nanoseconds(str(int(self.seconds or "") * 1_000_000_000 + int(self.nanoseconds or "")))
+        arrays = _ECHO_ARRAYS[1] if _ECHO_ARRAYS[1][0] in self.lists else _ECHO_ARRAYS[0]
+        numbers = [_YAML_FLOATS.get(x.lower(), x) for array in arrays for x in self.lists.get(array, [])]
+        return stamp_ns, tuple(self.lists.get("name", ())), ",".join(numbers)
+
+
+def _echo_rows(lines: Iterable[str]) -> tuple[_Rows, int]:
+    """The messages of an echo after its first line (module docstring), and how many had no
+    readable stamp. A last message without its ``---`` (a dump cut short) is read as it is."""
+    rows = _Rows(_Layout((0, 1, 2), 3, 0))
+    unreadable = 0
+
+    def take(message: _EchoMessage) -> None:
+        nonlocal unreadable
+        try:
+            stamp_ns, names, numbers = message.row()
+        except ValueError:
+            unreadable += 1
+            return
+        rows.add(stamp_ns, stamp_ns, names, numbers)
+        if len(rows.times_ns) % CHUNK_ROWS == 0:
+            rows.flush()
+
+    message = _EchoMessage()
+    for line in lines:
+        line = line.rstrip("\r\n")
+        if line.startswith(ECHO_END):
+            if message.lines:  # (two --- in a row hold no message)
+                take(message)
+            message = _EchoMessage()
+        elif line.strip():
+            message.line(line)
+    if message.lines:
+        take(message)
+    return rows, unreadable
+
+
+def _topic_data(path: str | os.PathLike[str], note: Callable[[str], None] | None = None) -> TopicData:
+    """The joint-state messages of a dump (module docstring), as a bag topic's decoded messages.
+
+    Read in chunks of CHUNK_ROWS messages (an hour at 100 Hz is 0.5 GB of text). Messages whose
+    time or header stamp is not a time (or rows that end before the names, or that csv cannot read)
+    are left out and counted in one warning line said through ``note``.
     """
     path = Path(path)
+    entries = "rows"
     with reading(path), open_text(path) as f:
         first = f.readline()
         if (header := _header_fields(first)) is not None:
             rows, unreadable = _rostopic_rows(path, header, f)
         elif (header := _bagpy_fields(first)) is not None:
             rows, unreadable = _bagpy_rows(path, header, f)
+        elif _is_echo(first):
+            rows, unreadable = _echo_rows(f)
+            entries = "messages"
         else:
             raise RecordingFileError(
-                f"{path}: not a table of rostopic echo -p joint states (its header must start {HEADER_START!r} and name {NAMES_FIELD}) "
-                f"or of bagpy's (its header must start {BAGPY_TIME!r} and name {' or '.join(BAGPY_NAMES)})"
+                f"{path}: not a table of rostopic echo -p joint states (its header must start {HEADER_START!r} and name {NAMES_FIELD}), "
+                f"of bagpy's (its header must start {BAGPY_TIME!r} and name {' or '.join(BAGPY_NAMES)}), or messages echoed (first line {ECHO_START!r})"
             )
     rows.flush()
     if not rows.times_ns:
-        raise RecordingFileError(f"{path}: no messages under the header line" + f" ({unreadable} rows without a readable time)" * bool(unreadable))
+        raise RecordingFileError(f"{path}: no messages in this file" + f" ({unreadable} {entries} without a readable time)" * bool(unreadable))
     if unreadable and note is not None:
         note(
-            f"WARNING: {path}: {unreadable} of {unreadable + len(rows.times_ns)} rows skipped: no time, header stamp "
+            f"WARNING: {path}: {unreadable} of {unreadable + len(rows.times_ns)} {entries} skipped: no time, header stamp "
             "and joint names could be read from them"
         )
-    return TopicData("topic table", np.array(rows.times_ns, dtype=np.int64), rows.blocks)
+    return TopicData("topic dump", np.array(rows.times_ns, dtype=np.int64), rows.blocks)
 
 
-def read_topic_table_recording(
+def read_topic_dump_recording(
     path: str | os.PathLike[str], *, arm: str | None = None, note: Callable[[str], None] | None = None
 ) -> Recording:
-    """One arm's recording from a ``rostopic echo -p`` or bagpy table of joint states (module docstring).
+    """One arm's recording from joint states dumped to text (module docstring).
 
     Stamps are the header stamps (the time column when every header stamp is zero); arm: "right"
     or "left", None to detect it as for a bag.
     """
     path = Path(path)
-    return joint_state_recording(path, _topic_data(path, note), arm=arm, note=note, where="in this table")
+    return joint_state_recording(path, _topic_data(path, note), arm=arm, note=note, where="in this file")

@@ -1,6 +1,7 @@
-"""Joint states dumped by ``rostopic echo -p`` and by bagpy: written here the way rostopic prints them
-(``recorded_bags.rostopic_plot_row``) and bagpy writes them (``recorded_bags.write_bagpy_table``),
-read back exactly through ``read_recording``."""
+"""Joint states dumped by ``rostopic echo -p``, by bagpy and by ``rostopic echo`` / ``ros2 topic echo``:
+written here the way rostopic prints them (``recorded_bags.rostopic_plot_row``), bagpy writes them
+(``recorded_bags.write_bagpy_table``) and echo prints them (``recorded_bags.echo_message``), read
+back exactly through ``read_recording``."""
 
 from __future__ import annotations
 
@@ -10,15 +11,17 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from recorded_bags import BAXTER_JOINTS, columns, joint_states, rostopic_plot_header, rostopic_plot_row, write_bagpy_table, write_rostopic_table
+from recorded_bags import (
+    BAXTER_JOINTS, columns, echo_message, joint_states, rostopic_plot_header, rostopic_plot_row, write_bagpy_table, write_rostopic_table,
+)
 from repo_paths import REPO
 
 from baxter_dynamics_ros.core.joints import arm_joint_names
 from baxter_dynamics_ros.core.samples import SkipReason
 from baxter_dynamics_ros.errors import RecordingFileError
 from msg_adapters.recording_files import read_recording
-from msg_adapters import topic_tables
-from msg_adapters.topic_tables import is_topic_table
+from msg_adapters import topic_dumps
+from msg_adapters.topic_dumps import is_topic_dump
 
 N = 300
 
@@ -33,7 +36,7 @@ def assert_arm(rec, states: dict, side: str, stamps_ns: np.ndarray | None = None
 def test_a_rostopic_table_reads_back_exactly_with_the_moving_arm_detected(tmp_path: Path) -> None:
     states = joint_states(N)
     path = write_rostopic_table(tmp_path / "joint_states.csv", states, receive_delay_ns=2_500_000)
-    assert is_topic_table(path)
+    assert is_topic_dump(path)
     notes: list[str] = []
     assert_arm(read_recording(path, note=notes.append), states, "right")
     assert_arm(read_recording(path, arm="left", note=notes.append), states, "left")
@@ -48,7 +51,7 @@ def test_rows_of_other_layouts_are_matched_by_name_and_the_rest_skipped_and_coun
     truncated last line (a dump cut short): the arm's samples read exactly, the rest counted; the
     same when the reader decodes a few rows at a time."""
     if chunk_rows is not None:
-        monkeypatch.setattr(topic_tables, "CHUNK_ROWS", chunk_rows)
+        monkeypatch.setattr(topic_dumps, "CHUNK_ROWS", chunk_rows)
     states = joint_states(N)
     rng = np.random.default_rng(3)
     lines = [rostopic_plot_header(BAXTER_JOINTS)]
@@ -78,7 +81,7 @@ def test_rows_of_other_layouts_are_matched_by_name_and_the_rest_skipped_and_coun
     notes: list[str] = []
     assert_arm(read_recording(path, note=notes.append), states, "right")
     assert notes == [
-        f"WARNING: {path}: {missing + length} of {len(lines) - 1} messages in this table skipped as malformed "
+        f"WARNING: {path}: {missing + length} of {len(lines) - 1} messages in this file skipped as malformed "
         f"({missing} {SkipReason.MISSING_JOINT.value}, {length} {SkipReason.ARRAY_LENGTH.value})"
     ]
     assert missing and length
@@ -98,7 +101,7 @@ def test_a_frame_id_with_commas_is_passed_over(tmp_path: Path, frame_id: str) ->
     path.write_text("\n".join(lines) + "\n")
     notes: list[str] = []
     assert_arm(read_recording(path, note=notes.append), states, "right")
-    assert notes == [f"WARNING: {path}: 4 of 44 messages in this table skipped as malformed (4 {SkipReason.MISSING_JOINT.value})"]
+    assert notes == [f"WARNING: {path}: 4 of 44 messages in this file skipped as malformed (4 {SkipReason.MISSING_JOINT.value})"]
 
 
 def test_without_header_stamps_the_time_column_is_used(tmp_path: Path) -> None:
@@ -116,11 +119,11 @@ def test_bad_rostopic_tables_are_refused_in_one_line(tmp_path: Path) -> None:
     header = rostopic_plot_header(BAXTER_JOINTS)
     only_header = tmp_path / "header.csv"
     only_header.write_text(header + "\n")
-    with pytest.raises(RecordingFileError, match="no messages under the header line"):
+    with pytest.raises(RecordingFileError, match="no messages in this file"):
         read_recording(only_header, note=None)
     binary = tmp_path / "binary.csv"
     binary.write_bytes(header.encode() + b"\n\xff\xfe\x00garbage\n")
-    assert is_topic_table(binary)
+    assert is_topic_dump(binary)
     with pytest.raises(RecordingFileError, match="not a text table"):
         read_recording(binary, note=None)
     gripper_only = tmp_path / "gripper.csv"
@@ -128,7 +131,7 @@ def test_bad_rostopic_tables_are_refused_in_one_line(tmp_path: Path) -> None:
     gripper_only.write_text(rostopic_plot_header(gripper) + "\n" + rostopic_plot_row(1, 1, gripper, [0.0], [0.0], [0.0]) + "\n")
     with pytest.raises(RecordingFileError, match=r"no arm has all 7 joints .*found: l_gripper_l_finger_joint$"):
         read_recording(gripper_only, note=None)
-    with pytest.raises(RecordingFileError, match=r"no message in this table has position, velocity and effort of all 7 left .*found: l_gripper_l_finger_joint$"):
+    with pytest.raises(RecordingFileError, match=r"no message in this file has position, velocity and effort of all 7 left .*found: l_gripper_l_finger_joint$"):
         read_recording(gripper_only, arm="left", note=None)
 
 
@@ -223,7 +226,7 @@ TYPED_DUMP = (
 def test_a_dump_typed_out_as_rostopic_prints_it(tmp_path: Path) -> None:
     path = tmp_path / "typed.csv"
     path.write_bytes(TYPED_DUMP.encode("utf-8"))
-    assert is_topic_table(path)
+    assert is_topic_dump(path)
     notes: list[str] = []
     rec = read_recording(path, note=notes.append)
     assert rec.side == "left" and rec.joint_names == tuple(f"left_{j}" for j in ("s0", "s1", "e0", "e1", "w0", "w1", "w2"))
@@ -232,7 +235,7 @@ def test_a_dump_typed_out_as_rostopic_prints_it(tmp_path: Path) -> None:
                                           [-0.149721358811, -0.989534, 0.0470194236, 1.99881314, 0.02, 0.91, -0.0131]])  # fmt: skip
     np.testing.assert_array_equal(rec.qd, [[0.3, 0.4, 0.1, 0.2, 0.5, 0.6, 0.7]] * 2)
     np.testing.assert_array_equal(rec.effort, [[-1.1, -20.2658, 0.1, 1.2, 0.0, 0.3, -0.0125], [-1.2, -20.3658, 0.2, 1.3, 0.1, 0.4, -0.0135]])
-    assert notes == [f"WARNING: {path}: 1 of 3 messages in this table skipped as malformed (1 {SkipReason.MISSING_JOINT.value})"]
+    assert notes == [f"WARNING: {path}: 1 of 3 messages in this file skipped as malformed (1 {SkipReason.MISSING_JOINT.value})"]
 
 
 def test_a_nan_does_not_decide_which_arm_moves(tmp_path: Path) -> None:
@@ -250,7 +253,7 @@ def test_when_no_row_is_a_whole_sample_the_error_says_so(tmp_path: Path) -> None
         lines.append(rostopic_plot_row(int(t), int(t), BAXTER_JOINTS, states["position"][k], states["velocity"][k]))
     path = tmp_path / "no_effort.csv"
     path.write_text("\n".join(lines) + "\n")
-    with pytest.raises(RecordingFileError, match=r"no message in this table has position, velocity and effort, one entry per name \(20 messages; joint names found: head_nod"):
+    with pytest.raises(RecordingFileError, match=r"no message in this file has position, velocity and effort, one entry per name \(20 messages; joint names found: head_nod"):
         read_recording(path, note=None)
 
 
@@ -266,7 +269,7 @@ def test_a_bagpy_table_reads_back_exactly_by_its_header_stamps(tmp_path: Path, n
     .nsecs (the Time column is the receive time, here 2.5 ms later), values to the last bit."""
     states = joint_states(N)
     path = write_bagpy_table(tmp_path / "robot-joint_states.csv", bagpy_messages(states, 2_500_000), names_split=names_split)
-    assert is_topic_table(path) and path.read_text().startswith("Time,header.seq,header.stamp.secs,header.stamp.nsecs,header.frame_id,name")
+    assert is_topic_dump(path) and path.read_text().startswith("Time,header.seq,header.stamp.secs,header.stamp.nsecs,header.frame_id,name")
     notes: list[str] = []
     assert_arm(read_recording(path, note=notes.append), states, "right")
     assert_arm(read_recording(path, arm="left", note=notes.append), states, "left")
@@ -301,7 +304,7 @@ def test_a_bagpy_table_of_gripper_messages_frame_ids_and_bad_rows(tmp_path: Path
     assert_arm(read_recording(path, note=notes.append), states, "right")
     assert notes == [
         f"WARNING: {path}: 4 of {len(messages) + 6} rows skipped: no time, header stamp and joint names could be read from them",
-        f"WARNING: {path}: {len(messages) - 60 + 2} of {len(messages) + 2} messages in this table skipped as malformed "
+        f"WARNING: {path}: {len(messages) - 60 + 2} of {len(messages) + 2} messages in this file skipped as malformed "
         f"({len(messages) - 60 + 1} {SkipReason.MISSING_JOINT.value}, 1 {SkipReason.ARRAY_LENGTH.value})",
     ]
 
@@ -317,3 +320,83 @@ def test_process_reads_a_bagpy_table_from_the_command_line(tmp_path: Path) -> No
     assert done.returncode == 0, done.stderr
     assert done.stderr == ""
     assert out.read_text().splitlines()[0].startswith("stamp_ns,") and len(out.read_text().splitlines()) == N + 1
+
+
+def echo_text(states: dict, ros2: bool) -> list[str]:
+    """Every Baxter joint's states echoed, one message per sample."""
+    arrays = [states[f] for f in ("position", "velocity", "effort")]
+    return [echo_message(int(t), BAXTER_JOINTS, *(a[k] for a in arrays), ros2=ros2) for k, t in enumerate(states["stamps_ns"])]
+
+
+@pytest.mark.parametrize("ros2", [False, True])
+def test_echoed_messages_read_back_exactly(tmp_path: Path, ros2: bool) -> None:
+    """``rostopic echo /robot/joint_states > run.txt`` and ROS 2's echo: the arm found by name, the
+    header stamps as times, values to the last bit."""
+    states = joint_states(N)
+    path = tmp_path / "run.txt"
+    path.write_text("\n".join(echo_text(states, ros2)) + "\n")
+    assert is_topic_dump(path)
+    notes: list[str] = []
+    assert_arm(read_recording(path, note=notes.append), states, "right")
+    assert_arm(read_recording(path, arm="left", note=notes.append), states, "left")
+    assert notes == []
+
+
+@pytest.mark.parametrize("ros2", [False, True])
+def test_echoed_messages_of_other_layouts_are_matched_by_name_and_the_rest_skipped_and_counted(tmp_path: Path, ros2: bool) -> None:
+    """Names in another order, gripper messages, a message without efforts, one without a stamp, a
+    NaN (ROS 2's ``.nan``), an empty message (``---`` twice), Windows line ends, and the last message
+    cut short: the arm's samples read exactly, the rest counted."""
+    states = joint_states(80)
+    order = np.arange(len(BAXTER_JOINTS))[::-1]
+    gripper = ("l_gripper_l_finger_joint", "l_gripper_r_finger_joint")
+    messages = []
+    for k, t in enumerate(states["stamps_ns"]):
+        names, arrays = BAXTER_JOINTS, [states[f][k] for f in ("position", "velocity", "effort")]
+        if k % 5 == 2:
+            names, arrays = [BAXTER_JOINTS[i] for i in order], [a[order] for a in arrays]
+        messages.append(echo_message(int(t), names, *arrays, ros2=ros2, frame_id="base"))
+        if k % 9 == 4:
+            messages.append(echo_message(int(t) + 1, gripper, [0.01, 0.01], [0.0, 0.0], [0.0, 0.0], ros2=ros2))
+    no_effort = echo_message(int(states["stamps_ns"][-1]) + 5, BAXTER_JOINTS, states["position"][0], states["velocity"][0], [], ros2=ros2)
+    no_stamp = echo_message(int(states["stamps_ns"][-1]) + 6, BAXTER_JOINTS, *(states[f][0] for f in ("position", "velocity", "effort")), ros2=ros2)
+    no_stamp = no_stamp.replace("sec", "when")
+    nan = states["position"][1].copy()
+    nan[BAXTER_JOINTS.index("right_e0")] = np.nan
+    with_nan = echo_message(int(states["stamps_ns"][-1]) + 7, BAXTER_JOINTS, nan, states["velocity"][1], states["effort"][1], ros2=ros2)
+    cut = echo_message(int(states["stamps_ns"][-1]) + 8, BAXTER_JOINTS, *(states[f][0] for f in ("position", "velocity", "effort")), ros2=ros2)
+    cut = cut[: cut.index("effort")] + "effort: [1.0]"
+    text = "\n".join([*messages, no_effort, no_stamp, "---", with_nan, cut])
+    path = tmp_path / "echo.txt"
+    path.write_bytes(text.replace("\n", "\r\n").encode())
+    notes: list[str] = []
+    assert_arm(read_recording(path, note=notes.append), states, "right")
+    grippers = sum(1 for k in range(80) if k % 9 == 4)
+    assert notes == [
+        f"WARNING: {path}: 1 of {len(messages) + 4} messages skipped: no time, header stamp and joint names could be read from them",
+        f"WARNING: {path}: {grippers + 2} of {len(messages) + 3} messages in this file skipped as malformed "
+        f"({grippers} {SkipReason.MISSING_JOINT.value}, 2 {SkipReason.ARRAY_LENGTH.value})",
+        f"WARNING: {path}: 1 of {80 + 1} samples skipped as implausible (1 NaN or inf); the recording is split into pieces at them",
+    ]
+
+
+def test_echoed_sea_joint_states_are_read_from_their_actual_arrays(tmp_path: Path) -> None:
+    """``rostopic echo /robot/limb/left/gravity_compensation_torques``: q, q̇, effort are the
+    actual_* arrays of each SEAJointState."""
+    joints = arm_joint_names("left")
+    states = joint_states(60, names=joints)
+    rng = np.random.default_rng(2)
+    messages = []
+    for k, t in enumerate(states["stamps_ns"]):
+        text = echo_message(int(t), joints, *(rng.normal(size=7) for _ in range(3)))  # the commanded_* arrays
+        for f in ("position", "velocity", "effort"):
+            text = text.replace(f"\n{f}: ", f"\ncommanded_{f}: ")
+        actual = "\n".join(f"actual_{f}: [{', '.join(repr(float(v)) for v in states[f][k])}]" for f in ("position", "velocity", "effort"))
+        messages.append(text.replace("\n---", f"\n{actual}\ngravity_model_effort: [{', '.join(['0.5'] * 7)}]\nhystState: 0\n---"))
+    path = tmp_path / "sea.txt"
+    path.write_text("\n".join(messages) + "\n")
+    rec = read_recording(path, note=None)
+    assert rec.side == "left"
+    np.testing.assert_array_equal(rec.stamps_ns, states["stamps_ns"])
+    for got, want in zip((rec.q, rec.qd, rec.effort), (states["position"], states["velocity"], states["effort"])):
+        np.testing.assert_array_equal(got, want)
