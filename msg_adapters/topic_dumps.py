@@ -136,6 +136,15 @@ def _seconds_ns(text: str) -> int:
     return round(value)
 
 
+def _stamp_ns(seconds: str, nanoseconds: str) -> int:
+    """A header stamp of two integer fields (secs and nsecs), in ns; ValueError for anything else,
+    or a time int64 nanoseconds cannot hold."""
+    value = int(seconds) * 1_000_000_000 + int(nanoseconds)
+    if not abs(value) < 2**63:
+        raise ValueError(f"not a stamp: {seconds!r} s {nanoseconds!r} ns")
+    return value
+
+
 def _listed_names(text: str) -> tuple[str, ...]:
     """The joint names of bagpy's one field (a Python list or tuple of text); () for anything else."""
     try:
@@ -337,7 +346,7 @@ def _bagpy_rows(path: Path, header: list[str], lines: Iterable[str]) -> tuple[_R
             if fields is None or len(fields) <= names_at:
                 raise ValueError("too few fields")
             time_ns = _seconds_ns(fields[0])
-            stamp_ns = _nanoseconds(str(int(fields[stamp_at[0]]) * 1_000_000_000 + int(fields[stamp_at[1]]))) if len(stamp_at) == 2 else 0
+            stamp_ns = _stamp_ns(fields[stamp_at[0]], fields[stamp_at[1]]) if len(stamp_at) == 2 else 0
         except ValueError:
             unreadable += 1
             continue
@@ -401,7 +410,7 @@ class _EchoMessage:
     def row(self) -> tuple[int, tuple[str, ...], str]:
         """(stamp ns, names, the text of its q, q̇ and effort numbers, comma-separated); ValueError
         where the stamp is no time."""
-        stamp_ns = _nanoseconds(str(int(self.seconds or "") * 1_000_000_000 + int(self.nanoseconds or "")))
+        stamp_ns = _stamp_ns(self.seconds or "", self.nanoseconds or "")
         arrays = _ECHO_ARRAYS[1] if _ECHO_ARRAYS[1][0] in self.lists else _ECHO_ARRAYS[0]
         numbers = [_YAML_FLOATS.get(x.lower(), x) for array in arrays for x in self.lists.get(array, [])]
         return stamp_ns, tuple(self.lists.get("name", ())), ",".join(numbers)
