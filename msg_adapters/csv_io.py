@@ -2,7 +2,8 @@
 
 Joints are matched by name, columns may come in any order and extra columns are ignored. A text
 table's fields are separated by commas, semicolons or whitespace (tabs too), as its header line's
-are; it may be compressed whole (:mod:`msg_adapters.text_files`), and begin with comment lines
+are, and may stand in double quotes; numbers in a table of semicolons may have a decimal comma
+(``-0,90``, a spreadsheet's export where the comma is one); it may be compressed whole (:mod:`msg_adapters.text_files`), and begin with comment lines
 (``#``), the last of them the header where data rows follow it (``numpy.savetxt``'s ``# ang_s0 …``).
 
 Which column holds which joint's position, velocity or effort, and which the time, its name says
@@ -40,6 +41,7 @@ Written by :func:`write_processed_table`: ``stamp_ns``, ``time_s`` (s since the 
 
 from __future__ import annotations
 
+import csv
 import math
 import os
 import re
@@ -64,6 +66,8 @@ __all__ = ["RATE_TOLERANCE", "Note", "columns_recording", "joint_state_columns",
 RATE_TOLERANCE = 0.10
 #: The largest time_s that int64 nanoseconds hold (292 years), s.
 MAX_TIME_S = 9.2e9
+#: The quote a text table's fields may stand in (``"ang_left_s0"``, ``"0.5"``), as CSV writers put it.
+_QUOTE = '"'
 Note = Callable[[str], None]  # takes a one-line message for the user
 
 
@@ -97,19 +101,26 @@ def _is_numbers(line: str) -> bool:
 
 
 def _numbers(rows: Sequence[str], delimiter: str | None) -> np.ndarray:
-    """(rows, columns) float64 of a text table's data rows; in comma- or semicolon-separated rows an
-    empty field is a missing value, NaN (exports of several topics leave one where a topic has no
-    sample at that time, as PlotJuggler's do): rows with one in the arm's columns are left out."""
+    """(rows, columns) float64 of a text table's data rows, a field in double quotes read as the
+    number it holds. In comma- or semicolon-separated rows an empty field is a missing value, NaN
+    (exports of several topics leave one where a topic has no sample at that time, as PlotJuggler's
+    do): rows with one in the arm's columns are left out. In semicolon-separated rows a comma in a
+    number is its decimal mark (``-0,90``: a spreadsheet's export where the comma is one)."""
     try:
-        return np.loadtxt(rows, delimiter=delimiter, ndmin=2, dtype=np.float64, comments=None)
+        return np.loadtxt(rows, delimiter=delimiter, ndmin=2, dtype=np.float64, comments=None, quotechar=_QUOTE)
     except ValueError:
         if delimiter is None:
             raise
-        return np.loadtxt(rows, delimiter=delimiter, ndmin=2, dtype=np.float64, comments=None, converters=_number_or_missing)
+        number = _decimal_comma_number_or_missing if delimiter == ";" else _number_or_missing
+        return np.loadtxt(rows, delimiter=delimiter, ndmin=2, dtype=np.float64, comments=None, quotechar=_QUOTE, converters=number)
 
 
 def _number_or_missing(field: str) -> float:
     return float(field) if field.strip() else math.nan
+
+
+def _decimal_comma_number_or_missing(field: str) -> float:
+    return _number_or_missing(field.replace(",", "."))
 
 
 def _nanosecond_columns(names: Sequence[str]) -> list[str]:
@@ -150,12 +161,15 @@ def _read_columns(path: Path) -> dict[str, np.ndarray]:
     if not rows:
         raise RecordingFileError(f"{path}: no data rows under the header line")
     delimiter = next((d for d in (",", ";") if d in header), None)  # else whitespace (tabs too)
-    names = [n.strip() for n in header.split(delimiter)]
+    try:
+        names = [n.strip() for n in (next(csv.reader([header], delimiter=delimiter)) if delimiter else header.split())]
+    except csv.Error as err:  # a name beyond csv's field size limit
+        raise RecordingFileError(f"{path}: the header line is no row of column names ({err})") from err
     _refuse_duplicates(path, names)
     try:
         values = _numbers(rows, delimiter)
         stamps = {
-            name: np.loadtxt(rows, delimiter=delimiter, ndmin=1, dtype=np.int64, usecols=names.index(name), comments=None)
+            name: np.loadtxt(rows, delimiter=delimiter, ndmin=1, dtype=np.int64, usecols=names.index(name), comments=None, quotechar=_QUOTE)
             for name in _nanosecond_columns(names)
         }
     except ValueError as err:

@@ -60,6 +60,27 @@ def test_semicolons_tabs_and_a_byte_order_mark_are_read_as_the_header_separates(
         assert_left_arm(read_recording(tmp_path / name, rate_hz=50.0, note=None), states)
 
 
+def test_quoted_fields_and_decimal_commas_as_spreadsheets_export_them(tmp_path: Path) -> None:
+    """Python's csv writer quoting every field, and a spreadsheet's export where the comma is the
+    decimal mark (fields separated by semicolons, ``-0,5``, text quoted): the same values, exactly."""
+    import csv
+
+    states = joint_states(N, rate_hz=50.0)
+    q, qd, tau = columns(states, arm_joint_names("left"))
+    header = [f"{p}_{j}" for p in ("ang", "vel", "torq") for j in arm_joint_names("left")]
+    values = np.hstack([q, qd, tau])
+    with open(tmp_path / "quoted.csv", "w", newline="") as f:
+        writer = csv.writer(f, quoting=csv.QUOTE_ALL)
+        writer.writerows([header, *(map(repr, map(float, row)) for row in values)])
+    with open(tmp_path / "comma.csv", "w", newline="") as f:
+        writer = csv.writer(f, delimiter=";", quoting=csv.QUOTE_NONNUMERIC)
+        writer.writerows([header, *([repr(float(v)).replace(".", ",") for v in row] for row in values)])
+    assert (tmp_path / "quoted.csv").read_text().startswith('"ang_left_s0","ang_left_s1"')
+    assert (tmp_path / "comma.csv").read_text().splitlines()[1].startswith('"' + repr(float(q[0, 0])).replace(".", ",") + '";')
+    for name in ("quoted.csv", "comma.csv"):
+        assert_left_arm(read_recording(tmp_path / name, rate_hz=50.0, note=None), states)
+
+
 def test_comment_lines_are_passed_over_and_numpy_savetxt_s_header_is_read(tmp_path: Path) -> None:
     states = joint_states(N, rate_hz=50.0)
     q, qd, tau = columns(states, arm_joint_names("left"))
