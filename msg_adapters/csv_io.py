@@ -23,6 +23,10 @@ arm (``ang_s0``, ``q1``): they are read for the arm given (``--arm``), and refus
 column whose name gives no unit is read in the one of s, ms, µs, ns in which its steps match the
 velocities, and the note says which.
 
+A table with no velocity column at all gives q̇ as the central difference of q over its time column
+(one that names its unit) or the rate given (``--rate-hz``), said in a note
+(:func:`_positions_velocity`).
+
 Without a time column, samples are evenly spaced at the rate given (``--rate-hz``) or estimated from
 the data (:func:`~baxter_dynamics_ros.core.recording.estimate_rate_hz`: least squares of Δq on q̇ Δt);
 without a given rate the estimate is used and said, and a given rate more than
@@ -53,7 +57,8 @@ import numpy as np
 from baxter_dynamics_ros.core.joints import ARM_SIDES, JOINT_SUFFIXES
 from baxter_dynamics_ros.core.plausibility import package_bounds, plausible_recording, screen_samples
 from baxter_dynamics_ros.core.recording import (
-    JUMP_GAP_PERIODS, OtherArm, ProcessedRecording, Recording, detect_arm, estimate_rate_hz, jumps, require_activity, summed_range_rad,
+    JUMP_GAP_PERIODS, OtherArm, ProcessedRecording, Recording, detect_arm, estimate_rate_hz, even_runs, jumps, require_activity,
+    summed_range_rad,
 )  # fmt: skip
 from baxter_dynamics_ros.errors import RecordingFileError
 
@@ -66,6 +71,8 @@ __all__ = ["RATE_TOLERANCE", "Note", "columns_recording", "joint_state_columns",
 RATE_TOLERANCE = 0.10
 #: The largest time_s that int64 nanoseconds hold (292 years), s.
 MAX_TIME_S = 9.2e9
+#: What a table without velocity columns must give per joint (q̇ is then its positions' difference).
+_WITHOUT_VELOCITY = ("position", "effort")
 #: The quote a text table's fields may stand in (``"ang_left_s0"``, ``"0.5"``), as CSV writers put it.
 _QUOTE = '"'
 Note = Callable[[str], None]  # takes a one-line message for the user
@@ -181,12 +188,17 @@ def _read_columns(path: Path) -> dict[str, np.ndarray]:
     return columns
 
 
+def _quantities(found: dict[tuple[str, str | None, str], JointColumn]) -> tuple[str, ...]:
+    """The quantities the table must give per joint: position, velocity and effort, or position and
+    effort where it has no velocity column at all (q̇ then from q: :func:`_positions_velocity`)."""
+    return QUANTITIES if any(key[0] == "velocity" for key in found) else _WITHOUT_VELOCITY
+
+
 def _arm_columns(found: dict[tuple[str, str | None, str], JointColumn], side: str, *, armless: bool = True) -> list[JointColumn] | None:
-    """The position, velocity and effort columns of ``side``'s 7 joints, 7 per quantity: those
-    naming the arm when they are all there, else (``armless``) those naming none when they are;
-    None if neither."""
+    """The columns of ``side``'s 7 joints, 7 per quantity of :func:`_quantities`: those naming the
+    arm when they are all there, else (``armless``) those naming none when they are; None if neither."""
     for named in (side, None) if armless else (side,):
-        wanted = [found.get((quantity, named, j)) for quantity in QUANTITIES for j in JOINT_SUFFIXES]
+        wanted = [found.get((quantity, named, j)) for quantity in _quantities(found) for j in JOINT_SUFFIXES]
         if all(wanted):
             return wanted
     return None
@@ -201,7 +213,7 @@ def _missing(found: dict[tuple[str, str | None, str], JointColumn], named: str |
     """The names, as the table would write them, of the joint columns it lacks of ``side``'s arm
     in the naming ``named`` (the arm's name, or None: no arm)."""
     out = []
-    for quantity in QUANTITIES:
+    for quantity in _quantities(found):
         model = next((c for key, c in found.items() if key[:2] == (quantity, named)), None)
         out += [model.renamed(j) if model else f"the {quantity} of {side}_{j}" for j in JOINT_SUFFIXES if (quantity, named, j) not in found]
     return tuple(out)
@@ -223,10 +235,10 @@ def _other_arms(found: dict[tuple[str, str | None, str], JointColumn], columns: 
     return others
 
 
-def _time_column_ns(path: Path, columns: dict[str, np.ndarray], time: TimeColumn, q: np.ndarray, qd: np.ndarray, note: Note | None) -> np.ndarray:
+def _time_column_ns(path: Path, columns: dict[str, np.ndarray], time: TimeColumn, q: np.ndarray, qd: np.ndarray | None, note: Note | None) -> np.ndarray:
     """(N,) stamps, int64 ns, from a time column: integers in ns as they are, any other scaled by
     its unit (:mod:`msg_adapters.table_columns`) or, where its name gives none, by the unit in which
-    its steps match the velocities (:func:`_time_unit_s`)."""
+    its steps match the velocities qd (:func:`_time_unit_s`; a column of no unit needs them)."""
     values = columns[time.name]
     if values.dtype.kind in "iu" and time.scale_s == 1e-9:
         return values.astype(np.int64)
@@ -337,11 +349,12 @@ def columns_recording(
             + f"; {', '.join(bare[:3])}{' …' * (len(bare) > 3)} name a joint but not what it holds (as baxter_examples' "
             "joint_recorder.py names positions, the only quantity it records): the dynamics need each joint's effort too" * bool(bare)
         )
-    if arm is None and all((quantity, None, j) in found for quantity in QUANTITIES for j in JOINT_SUFFIXES):
-        example = " ".join(found[(quantity, None, "s0")].name for quantity in QUANTITIES)
+    needed = _quantities(found)
+    if arm is None and all((quantity, None, j) in found for quantity in needed for j in JOINT_SUFFIXES):
+        example = " ".join(found[(quantity, None, "s0")].name for quantity in needed)
         raise RecordingFileError(f"{path}: the columns name no arm ({example} ...); pass --arm right|left")
     if arm is None:
-        named = [f"{side}_{j}" for (quantity, side, j) in found if quantity == "position" and side and all((k, side, j) in found for k in QUANTITIES)]
+        named = [f"{side}_{j}" for (quantity, side, j) in found if quantity == "position" and side and all((k, side, j) in found for k in needed)]
         ranges = {
             side: summed_range_rad(_values(columns, chosen[:7]))
             for side in ARM_SIDES
@@ -352,16 +365,56 @@ def columns_recording(
     if chosen is None:
         named = arm if any(key[1] == arm for key in found) else None
         raise RecordingFileError(f"{path}: the {arm} arm needs columns missing here: {', '.join(_missing(found, named, arm))}")
-    q, qd, effort = (_values(columns, chosen[7 * k : 7 * k + 7]) for k in range(3))
+    q, effort = _values(columns, chosen[:7]), _values(columns, chosen[-7:])
+    if needed == QUANTITIES:
+        qd = _values(columns, chosen[7:14])
+    else:
+        stamps_ns, qd = _positions_velocity(path, columns, q, rate_hz, note)
     screening = screen_samples(package_bounds(arm), q, qd, effort)
     error = screening.refusal()
     if error is not None:
         raise error
     keep = screening.keep
     require_activity(arm, q[keep], effort[keep], _other_arms(found, columns, arm))
-    gone = np.where(keep[:, None], 0.0, np.nan)  # implausible rows left out of the rate's estimate
-    stamps_ns = _sample_times_ns(path, columns, q + gone, qd + gone, rate_hz, note, package_bounds(arm)[3])
+    if needed == QUANTITIES:
+        gone = np.where(keep[:, None], 0.0, np.nan)  # implausible rows left out of the rate's estimate
+        stamps_ns = _sample_times_ns(path, columns, q + gone, qd + gone, rate_hz, note, package_bounds(arm)[3])
     return plausible_recording(str(path), arm, stamps_ns, q, qd, effort, note, screening)
+
+
+def _positions_velocity(
+    path: Path, columns: dict[str, np.ndarray], q: np.ndarray, rate_hz: float | None, note: Note | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """(stamps (N,) int64 ns, q̇ (N, 7) rad/s) of a table without velocity columns: the times of its
+    time column (one whose unit is named: with no velocities, none can be inferred) or, without
+    one, samples 1 / ``rate_hz`` apart (needed: no rate can be estimated either); q̇ the central
+    difference of q (N, 7) over them, one-sided at the ends of each run of evenly spaced samples
+    (:attr:`~baxter_dynamics_ros.core.recording.Recording.segments`), NaN in a run of one sample.
+    Said through ``note``."""
+    times = time_columns(columns)
+    if times:
+        if times[0].scale_s is None:
+            raise RecordingFileError(
+                f"{path}: has no velocity columns, and its time column {times[0].name} names no unit, which is read from the "
+                f"velocities; name the unit in the header (e.g. {times[0].name}_s or {times[0].name}_ns)"
+            )
+        stamps_ns = _time_column_ns(path, columns, times[0], q, None, note)
+    elif rate_hz is None or not (np.isfinite(rate_hz) and rate_hz > 0):
+        raise RecordingFileError(
+            f"{path}: has no time column and no velocity columns, so the sample rate can be neither read nor estimated; "
+            "pass --rate-hz if the rows are consecutive samples"
+        )
+    else:
+        stamps_ns = np.round(np.arange(len(q)) * (1e9 / rate_hz)).astype(np.int64)
+    t = (stamps_ns - stamps_ns[0]) * 1e-9
+    qd = np.full_like(q, np.nan)
+    with np.errstate(divide="ignore", invalid="ignore"):  # stamps that repeat: refused with the recording
+        for start, stop in even_runs(stamps_ns):
+            if stop - start >= 2:
+                qd[start:stop] = np.gradient(q[start:stop], t[start:stop], axis=0)
+    if note is not None:
+        note(f"{path}: no velocity columns; q̇ is the central difference of q over the {'time column' if times else 'rate given'}")
+    return stamps_ns, qd
 
 
 def joint_state_columns(

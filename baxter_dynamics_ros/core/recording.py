@@ -30,6 +30,7 @@ __all__ = [
     "Recording",
     "detect_arm",
     "estimate_rate_hz",
+    "even_runs",
     "jumps",
     "length_shortfall",
     "require_activity",
@@ -65,6 +66,18 @@ GAP_JITTER_SDS = 6.0
 JUMP_GAP_PERIODS = 10
 #: The least data a fit takes in all (the diagnosis' training recordings, a calibration's), s.
 MIN_FIT_S = 10.0
+
+
+def even_runs(stamps_ns: np.ndarray) -> tuple[tuple[int, int], ...]:
+    """(start, stop) indices of the runs of evenly spaced stamps (N,) ns: split at every step longer
+    than :data:`GAP_PERIODS` median steps and :data:`GAP_JITTER_SDS` robust SDs of the steps above
+    the median (:attr:`Recording.segments`)."""
+    steps = np.diff(np.asarray(stamps_ns)).astype(np.float64)
+    median = float(np.median(steps)) if steps.size else 0.0
+    jitter = 1.4826 * float(np.median(np.abs(steps - median))) if steps.size else 0.0
+    limit = median + max((GAP_PERIODS - 1.0) * median, GAP_JITTER_SDS * jitter)
+    cuts = (np.flatnonzero(steps > limit) + 1).tolist()
+    return tuple(zip([0, *cuts], [*cuts, len(stamps_ns)]))
 
 
 def summed_range_rad(q: np.ndarray) -> float:
@@ -288,12 +301,7 @@ class Recording:
         """(start, stop) sample indices of the runs of evenly spaced samples: the recording split at
         every step longer than :data:`GAP_PERIODS` median periods and :data:`GAP_JITTER_SDS` robust
         SDs of the steps above the median. One run without gaps."""
-        steps = np.diff(self.stamps_ns).astype(np.float64)
-        median = float(np.median(steps)) if steps.size else 0.0
-        jitter = 1.4826 * float(np.median(np.abs(steps - median))) if steps.size else 0.0
-        limit = median + max((GAP_PERIODS - 1.0) * median, GAP_JITTER_SDS * jitter)
-        cuts = (np.flatnonzero(steps > limit) + 1).tolist()
-        return tuple(zip([0, *cuts], [*cuts, len(self)]))
+        return even_runs(self.stamps_ns)
 
     @property
     def span_s(self) -> float:

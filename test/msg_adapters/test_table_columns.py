@@ -164,3 +164,47 @@ def test_positions_alone_under_bare_joint_names_are_refused_saying_so(tmp_path: 
     columns = {"time": np.arange(len(sim.q)) / 200.0} | {n: sim.q[:, k % 7] for k, n in enumerate(names)}
     with pytest.raises(RecordingFileError, match=r"no joint columns; .*; left_s0, left_s1, left_e0 … name a joint but not what it holds .*need each joint's effort"):
         read_recording(write(tmp_path / "joints.txt", columns), note=None)
+
+
+def positions_and_efforts(sim) -> dict[str, np.ndarray]:
+    """The left arm's position and effort columns of the simulated recording, no velocity column."""
+    return {n: v for n, v in arm_columns(sim, lambda k, j: f"{('pos', 'vel', 'eff')[k]}_left_{JOINT_SUFFIXES[j]}").items() if not n.startswith("vel")}
+
+
+def central_differences(q: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """(q[k+1] − q[k−1]) / (t[k+1] − t[k−1]) inside, one-sided steps at the two ends."""
+    out = np.empty_like(q)
+    out[1:-1] = (q[2:] - q[:-2]) / (t[2:] - t[:-2])[:, None]
+    out[0], out[-1] = (q[1] - q[0]) / (t[1] - t[0]), (q[-1] - q[-2]) / (t[-1] - t[-2])
+    return out
+
+
+def test_without_velocity_columns_the_velocity_is_the_positions_difference(tmp_path: Path, sim) -> None:
+    """Positions and efforts only, over a time column (with a gap: each run differenced on its own)
+    or at a given rate: q and τ as written, q̇ the central difference of q, near the simulator's own
+    q̇; said in a note."""
+    t = (sim.stamps_ns - sim.stamps_ns[0]) * 1e-9
+    t[300:] += 0.5  # a gap of half a second
+    columns = positions_and_efforts(sim)
+    notes: list[str] = []
+    path = write(tmp_path / "timed.csv", {"time_s": t, **columns})
+    rec = read_recording(path, note=notes.append)
+    assert rec.side == "left" and rec.segments == ((0, 300), (300, len(t)))
+    np.testing.assert_array_equal(rec.q, sim.q)
+    np.testing.assert_array_equal(rec.effort, sim.effort)
+    want = np.vstack([central_differences(sim.q[:300], t[:300]), central_differences(sim.q[300:], t[300:])])
+    np.testing.assert_allclose(rec.qd, want, rtol=1e-9, atol=1e-12)
+    inside = np.r_[1:299, 301 : len(t) - 1]  # (the simulator's q holds its sensor noise, which differencing amplifies)
+    assert np.sqrt(np.mean((rec.qd - sim.qd)[inside] ** 2)) < 0.15 * np.sqrt(np.mean(sim.qd**2))
+    assert notes == [f"{path}: no velocity columns; q̇ is the central difference of q over the time column"]
+    untimed = write(tmp_path / "untimed.csv", columns)
+    rec = read_recording(untimed, rate_hz=200.0, note=None)
+    np.testing.assert_allclose(rec.qd, central_differences(sim.q, np.arange(len(t)) / 200.0), rtol=1e-9, atol=1e-12)
+    with pytest.raises(RecordingFileError, match="no time column and no velocity columns, so the sample rate can be neither read nor estimated; pass --rate-hz"):
+        read_recording(untimed, note=None)
+    with pytest.raises(RecordingFileError, match=r"no velocity columns, and its time column t names no unit, which is read from the velocities; name the unit in the header \(e.g. t_s"):
+        read_recording(write(tmp_path / "t.csv", {"t": t, **columns}), note=None)
+    some = arm_columns(sim, lambda k, j: f"{('pos', 'vel', 'eff')[k]}_left_{JOINT_SUFFIXES[j]}")
+    del some["vel_left_w2"]  # velocity columns, one missing: not a table without them
+    with pytest.raises(RecordingFileError, match="the left arm needs columns missing here: vel_left_w2$"):
+        read_recording(write(tmp_path / "six.csv", {"time_s": t, **some}), arm="left", note=None)
