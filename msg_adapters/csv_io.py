@@ -1,6 +1,7 @@
 """Recordings as tables: CSV files (and Parquet, same columns) in and out.
 
-Joints are matched by name, columns may come in any order and extra columns are ignored. A text
+Joints are matched by name, columns may come in any order and extra columns are ignored (text in
+them too: a label, a date). A text
 table's fields are separated by commas, semicolons or whitespace (tabs too), as its header line's
 are, and may stand in double quotes; numbers in a table of semicolons may have a decimal comma
 (``-0,90``, a spreadsheet's export where the comma is one). It may be compressed whole
@@ -108,19 +109,20 @@ def _is_numbers(line: str) -> bool:
     return True
 
 
-def _numbers(rows: Sequence[str], delimiter: str | None) -> np.ndarray:
-    """(rows, columns) float64 of a text table's data rows, a field in double quotes read as the
-    number it holds. In comma- or semicolon-separated rows an empty field is a missing value, NaN
-    (exports of several topics leave one where a topic has no sample at that time, as PlotJuggler's
-    do): rows with one in the arm's columns are left out. In semicolon-separated rows a comma in a
-    number is its decimal mark (``-0,90``: a spreadsheet's export where the comma is one)."""
+def _numbers(rows: Sequence[str], delimiter: str | None, usecols: Sequence[int] | None = None) -> np.ndarray:
+    """(rows, columns) float64 of a text table's data rows (of the columns ``usecols``, None: all), a
+    field in double quotes read as the number it holds. In comma- or semicolon-separated rows an
+    empty field is a missing value, NaN (exports of several topics leave one where a topic has no
+    sample at that time, as PlotJuggler's do): rows with one in the arm's columns are left out. In
+    semicolon-separated rows a comma in a number is its decimal mark (``-0,90``: a spreadsheet's
+    export where the comma is one)."""
     try:
-        return np.loadtxt(rows, delimiter=delimiter, ndmin=2, dtype=np.float64, comments=None, quotechar=_QUOTE)
+        return np.loadtxt(rows, delimiter=delimiter, ndmin=2, dtype=np.float64, comments=None, quotechar=_QUOTE, usecols=usecols)
     except ValueError:
         if delimiter is None:
             raise
         number = _decimal_comma_number_or_missing if delimiter == ";" else _number_or_missing
-        return np.loadtxt(rows, delimiter=delimiter, ndmin=2, dtype=np.float64, comments=None, quotechar=_QUOTE, converters=number)
+        return np.loadtxt(rows, delimiter=delimiter, ndmin=2, dtype=np.float64, comments=None, quotechar=_QUOTE, converters=number, usecols=usecols)
 
 
 def _number_or_missing(field: str) -> float:
@@ -174,19 +176,51 @@ def _read_columns(path: Path) -> dict[str, np.ndarray]:
     except csv.Error as err:  # a name beyond csv's field size limit
         raise RecordingFileError(f"{path}: the header line is no row of column names ({err})") from err
     _refuse_duplicates(path, names)
+    kept = names
     try:
-        values = _numbers(rows, delimiter)
+        try:
+            values = _numbers(rows, delimiter)
+        except ValueError:
+            kept = _read_names(path, names)
+            if len(kept) in (0, len(names)):
+                raise
+            _refuse_ragged(path, rows, delimiter, len(names))  # a column's place must be the header's in every row
+            values = _numbers(rows, delimiter, usecols=[names.index(n) for n in kept])  # other columns may hold text
         stamps = {
             name: np.loadtxt(rows, delimiter=delimiter, ndmin=1, dtype=np.int64, usecols=names.index(name), comments=None, quotechar=_QUOTE)
-            for name in _nanosecond_columns(names)
+            for name in _nanosecond_columns(kept)
         }
     except ValueError as err:
         raise RecordingFileError(f"{path}: not a table of numbers under a header line ({err})") from err
-    if values.shape[1] != len(names):
+    if values.shape[1] != len(kept):
         raise RecordingFileError(f"{path}: the header names {len(names)} columns but rows have {values.shape[1]}")
-    columns = {name: values[:, k] for k, name in enumerate(names)}
+    columns = {name: values[:, k] for k, name in enumerate(kept)}
     columns.update(stamps)
     return columns
+
+
+def _refuse_ragged(path: Path, rows: Sequence[str], delimiter: str | None, width: int) -> None:
+    """Refuses rows whose fields are not as many as the header's ``width`` names (fields split as csv
+    splits them, quotes kept together; by whitespace for a delimiter None)."""
+    try:
+        counts = [len(fields) for fields in (csv.reader(rows, delimiter=delimiter) if delimiter else (row.split() for row in rows))]
+    except csv.Error as err:  # a field beyond csv's size limit
+        raise RecordingFileError(f"{path}: not a table under a header line ({err})") from err
+    bad = next((k for k, n in enumerate(counts) if n != width), None)
+    if bad is not None:
+        raise RecordingFileError(f"{path}: the header names {width} columns but data row {bad + 1} has {counts[bad]}")
+
+
+def _read_names(path: Path, names: Sequence[str]) -> list[str]:
+    """The names among a table's column names that it is read for, in their order: the joint
+    columns (:func:`~msg_adapters.table_columns.joint_columns`) and the time columns; [] where it
+    has no joint column (then its text is refused as it is)."""
+    try:
+        joints = {c.name for c in joint_columns(names).values()}
+    except RecordingFileError as err:
+        raise RecordingFileError(f"{path}: {err}") from err
+    wanted = joints | {c.name for c in time_columns(names)} if joints else set()
+    return [n for n in names if n in wanted]
 
 
 def _quantities(found: dict[tuple[str, str | None, str], JointColumn]) -> tuple[str, ...]:

@@ -81,6 +81,27 @@ def test_quoted_fields_and_decimal_commas_as_spreadsheets_export_them(tmp_path: 
         assert_left_arm(read_recording(tmp_path / name, rate_hz=50.0, note=None), states)
 
 
+def test_columns_of_text_beside_the_joint_columns_are_passed_over(tmp_path: Path) -> None:
+    """A date and a label per row (pandas' to_csv of a DataFrame indexed by time, a trial's name):
+    not read, the joint columns read exactly; a row whose fields are not the header's as many (a
+    date holding a space between whitespace-separated fields) refused, not read shifted; text in a
+    joint column refused."""
+    states = joint_states(N, rate_hz=50.0)
+    text = write_baxter_export(tmp_path / "plain.csv", states).read_text().splitlines()
+    dates = [f"2019-05-03T12:00:{k / 50:08.5f}" for k in range(N)]
+    for name, sep in (("labelled.csv", ","), ("labelled.txt", " ")):
+        rows = [sep.join(["date", "trial", *text[0].split()])] + [sep.join([d, "circle", *row.split()]) for d, row in zip(dates, text[1:])]
+        (tmp_path / name).write_text("\n".join(rows) + "\n")
+        assert_left_arm(read_recording(tmp_path / name, rate_hz=50.0, note=None), states)
+    spaced = [" ".join(["date", "trial", *text[0].split()])] + [" ".join([d.replace("T", " "), "circle", *row.split()]) for d, row in zip(dates, text[1:])]
+    (tmp_path / "spaced.txt").write_text("\n".join(spaced) + "\n")
+    with pytest.raises(RecordingFileError, match=f"the header names {len(text[0].split()) + 2} columns but data row 1 has {len(text[0].split()) + 3}"):
+        read_recording(tmp_path / "spaced.txt", rate_hz=50.0, note=None)
+    (tmp_path / "word.txt").write_text("\n".join([text[0], *text[1:5], text[5].replace(text[5].split()[3], "x", 1), *text[6:]]) + "\n")
+    with pytest.raises(RecordingFileError, match="not a table of numbers under a header line"):
+        read_recording(tmp_path / "word.txt", rate_hz=50.0, note=None)
+
+
 def test_comment_lines_are_passed_over_and_numpy_savetxt_s_header_is_read(tmp_path: Path) -> None:
     states = joint_states(N, rate_hz=50.0)
     q, qd, tau = columns(states, arm_joint_names("left"))
