@@ -1,12 +1,11 @@
 """Recordings as tables: CSV files (and Parquet, same columns) in and out.
 
-Joints are matched by name, columns may come in any order and extra columns are ignored (text in
-them too: a label, a date). A text
-table's fields are separated by commas, semicolons or whitespace (tabs too), as its header line's
-are, and may stand in double quotes; numbers in a table of semicolons may have a decimal comma
-(``-0,90``, a spreadsheet's export where the comma is one). It may be compressed whole
-(:mod:`msg_adapters.text_files`), and begin with comment lines (``#``), the last of them the header
-where data rows follow it (``numpy.savetxt``'s ``# ang_s0 …``).
+Joints are matched by name, columns may come in any order and extra columns are ignored, text in
+them too (a date, a label). A text table's fields are separated by commas, semicolons or whitespace
+(tabs too), as its header line's are, and may stand in double quotes; numbers in a table of
+semicolons may have a decimal comma (``-0,90``, a spreadsheet's export where the comma is one). It
+may be compressed whole (:mod:`msg_adapters.text_files`), and begin with comment lines (``#``), the
+last of them the header where data rows follow it (``numpy.savetxt``'s ``# ang_s0 …``).
 
 Which column holds which joint's position, velocity or effort, and which the time, its name says
 (:mod:`msg_adapters.table_columns`: ``ang_left_s0``, ``position_s0``, ``left_s0_pos``, ``q1 … q7``,
