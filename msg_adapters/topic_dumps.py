@@ -472,7 +472,8 @@ def _topic_data(path: str | os.PathLike[str], note: Callable[[str], None] | None
             )
     rows.flush()
     if not rows.times_ns:
-        raise RecordingFileError(f"{path}: no messages in this file" + f" ({unreadable} {entries} without a readable time)" * bool(unreadable))
+        some = f" ({unreadable} {entries.removesuffix('s') if unreadable == 1 else entries} without a readable time)" if unreadable else ""
+        raise RecordingFileError(f"{path}: no messages in this file{some}")
     if unreadable and note is not None:
         note(
             f"WARNING: {path}: {unreadable} of {unreadable + len(rows.times_ns)} {entries} skipped: no time, header stamp "

@@ -119,8 +119,14 @@ def test_bad_rostopic_tables_are_refused_in_one_line(tmp_path: Path) -> None:
     header = rostopic_plot_header(BAXTER_JOINTS)
     only_header = tmp_path / "header.csv"
     only_header.write_text(header + "\n")
-    with pytest.raises(RecordingFileError, match="no messages in this file"):
+    with pytest.raises(RecordingFileError, match="no messages in this file$"):
         read_recording(only_header, note=None)
+    only_header.write_text(header + "\nsoon,0,0\nlater,0,0\n")
+    with pytest.raises(RecordingFileError, match=r"no messages in this file \(2 rows without a readable time\)$"):
+        read_recording(only_header, note=None)
+    (tmp_path / "echo.txt").write_text("header:\n  stamp:\n    sec: 1\n")
+    with pytest.raises(RecordingFileError, match=r"no messages in this file \(1 message without a readable time\)$"):
+        read_recording(tmp_path / "echo.txt", note=None)
     binary = tmp_path / "binary.csv"
     binary.write_bytes(header.encode() + b"\n\xff\xfe\x00garbage\n")
     assert is_topic_dump(binary)
