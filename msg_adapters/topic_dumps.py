@@ -227,12 +227,15 @@ class _Rows:
         self.pending: dict[tuple[str, ...], tuple[list[int], list[str]]] = {}
 
     def add(self, time_ns: int, stamp_ns: int, names: tuple[str, ...], numbers: str) -> None:
-        """One row: its times (ns), names and the text of its numbers (decoded at the next flush)."""
+        """One row: its times (ns), names and the text of its numbers (decoded at the next flush,
+        every CHUNK_ROWS rows)."""
         index, texts = self.pending.setdefault(names, ([], []))
         index.append(len(self.times_ns))
         texts.append(numbers)
         self.times_ns.append(time_ns)
         self.stamps_ns.append(stamp_ns)
+        if len(self.times_ns) % CHUNK_ROWS == 0:
+            self.flush()
 
     def flush(self) -> None:
         """Decode the pending rows into blocks of one name list each, those whose numbers fit the
@@ -310,8 +313,6 @@ def _rostopic_rows(path: Path, header: list[str], lines: Iterable[str]) -> tuple
             rest = rest.split(",", commas)[-1] if rest.count(",") >= commas else ""
         names, numbers = _split_names(rest, names)
         rows.add(time_ns, stamp_ns, names, numbers)
-        if len(rows.times_ns) % CHUNK_ROWS == 0:
-            rows.flush()
     return rows, unreadable
 
 
@@ -358,8 +359,6 @@ def _bagpy_rows(path: Path, header: list[str], lines: Iterable[str]) -> tuple[_R
             m = _leading_texts(fields[names_at:])
             names, numbers = tuple(fields[names_at : names_at + m]), fields[names_at + m :]
         rows.add(time_ns, stamp_ns, names, ",".join(numbers))
-        if len(rows.times_ns) % CHUNK_ROWS == 0:
-            rows.flush()
     return rows, unreadable
 
 
@@ -430,8 +429,6 @@ def _echo_rows(lines: Iterable[str]) -> tuple[_Rows, int]:
             unreadable += 1
             return
         rows.add(stamp_ns, stamp_ns, names, numbers)
-        if len(rows.times_ns) % CHUNK_ROWS == 0:
-            rows.flush()
 
     message = _EchoMessage()
     for line in lines:
