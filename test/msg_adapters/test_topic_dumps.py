@@ -141,9 +141,13 @@ def test_bad_rostopic_tables_are_refused_in_one_line(tmp_path: Path) -> None:
         read_recording(gripper_only, arm="left", note=None)
 
 
-def test_process_reads_a_rostopic_table_from_the_command_line(tmp_path: Path) -> None:
+@pytest.mark.parametrize("dump", ["rostopic", "bagpy"])
+def test_process_reads_a_dump_from_the_command_line(tmp_path: Path, dump: str) -> None:
     states = joint_states(N)
-    path = write_rostopic_table(tmp_path / "run.csv", states)
+    if dump == "rostopic":
+        path = write_rostopic_table(tmp_path / "run.csv", states)
+    else:
+        path = write_bagpy_table(tmp_path / "robot-joint_states.csv", bagpy_messages(states, 1_000_000))
     out = tmp_path / "out.csv"
     done = subprocess.run(
         [str(Path(sys.executable).with_name("baxter-dynamics")), "process", str(path), "--out", str(out)],
@@ -151,8 +155,9 @@ def test_process_reads_a_rostopic_table_from_the_command_line(tmp_path: Path) ->
     )
     assert done.returncode == 0, done.stderr
     assert done.stderr == ""
-    header = out.read_text().splitlines()[0].split(",")
-    assert "residual_right_s0" in header and len(out.read_text().splitlines()) == N + 1
+    lines = out.read_text().splitlines()
+    header = lines[0].split(",")
+    assert header[0] == "stamp_ns" and "residual_right_s0" in header and len(lines) == N + 1
 
 
 def test_rows_without_a_time_are_skipped_and_counted_on_their_own(tmp_path: Path) -> None:
@@ -313,19 +318,6 @@ def test_a_bagpy_table_of_gripper_messages_frame_ids_and_bad_rows(tmp_path: Path
         f"WARNING: {path}: {len(messages) - 60 + 2} of {len(messages) + 2} messages in this file skipped as malformed "
         f"({len(messages) - 60 + 1} {SkipReason.MISSING_JOINT.value}, 1 {SkipReason.ARRAY_LENGTH.value})",
     ]
-
-
-def test_process_reads_a_bagpy_table_from_the_command_line(tmp_path: Path) -> None:
-    states = joint_states(N)
-    path = write_bagpy_table(tmp_path / "robot-joint_states.csv", bagpy_messages(states, 1_000_000))
-    out = tmp_path / "out.csv"
-    done = subprocess.run(
-        [str(Path(sys.executable).with_name("baxter-dynamics")), "process", str(path), "--out", str(out)],
-        capture_output=True, text=True, cwd=REPO,
-    )
-    assert done.returncode == 0, done.stderr
-    assert done.stderr == ""
-    assert out.read_text().splitlines()[0].startswith("stamp_ns,") and len(out.read_text().splitlines()) == N + 1
 
 
 def echo_text(states: dict, ros2: bool) -> list[str]:
