@@ -305,6 +305,14 @@ def _time_unit_s(path: Path, name: str, t: np.ndarray, q: np.ndarray, qd: np.nda
     return unit
 
 
+def _check_rate(path: Path, rate_hz: float | None) -> float | None:
+    """The rate given for a table without a time column (None: none given), refused unless a
+    positive number of Hz."""
+    if rate_hz is not None and not (np.isfinite(rate_hz) and rate_hz > 0):
+        raise RecordingFileError(f"{path}: has no time column and --rate-hz must be a positive number of Hz, got {rate_hz}")
+    return rate_hz
+
+
 def _sample_times_ns(
     path: Path, columns: dict[str, np.ndarray], q: np.ndarray, qd: np.ndarray, rate_hz: float | None, note: Note | None, speed_bound: np.ndarray
 ) -> np.ndarray:
@@ -315,8 +323,7 @@ def _sample_times_ns(
     times = time_columns(columns)
     if times:
         return _time_column_ns(path, columns, times[0], q, qd, note)
-    if rate_hz is not None and not (np.isfinite(rate_hz) and rate_hz > 0):
-        raise RecordingFileError(f"{path}: has no time column and --rate-hz must be a positive number of Hz, got {rate_hz}")
+    _check_rate(path, rate_hz)
     estimate = estimate_rate_hz(q, qd, speed_bound)
     if estimate is None:
         if rate_hz is None:
@@ -433,7 +440,7 @@ def _positions_velocity(
                 f"velocities; name the unit in the header (e.g. {times[0].name}_s or {times[0].name}_ns)"
             )
         stamps_ns = _time_column_ns(path, columns, times[0], q, None, note)
-    elif rate_hz is None or not (np.isfinite(rate_hz) and rate_hz > 0):
+    elif _check_rate(path, rate_hz) is None:
         raise RecordingFileError(
             f"{path}: has no time column and no velocity columns, so the sample rate can be neither read nor estimated; "
             "pass --rate-hz if the rows are consecutive samples"

@@ -202,6 +202,8 @@ def test_without_velocity_columns_the_velocity_is_the_positions_difference(tmp_p
     np.testing.assert_allclose(rec.qd, central_differences(sim.q, np.arange(len(t)) / 200.0), rtol=1e-9, atol=1e-12)
     with pytest.raises(RecordingFileError, match="no time column and no velocity columns, so the sample rate can be neither read nor estimated; pass --rate-hz"):
         read_recording(untimed, note=None)
+    with pytest.raises(RecordingFileError, match="has no time column and --rate-hz must be a positive number of Hz, got -5.0"):
+        read_recording(untimed, rate_hz=-5.0, note=None)
     with pytest.raises(RecordingFileError, match=r"no velocity columns, and its time column t names no unit, which is read from the velocities; name the unit in the header \(e.g. t_s"):
         read_recording(write(tmp_path / "t.csv", {"t": t, **columns}), note=None)
     some = arm_columns(sim, lambda k, j: f"{('pos', 'vel', 'eff')[k]}_left_{JOINT_SUFFIXES[j]}")
