@@ -22,7 +22,10 @@ Which column holds which joint's position, velocity or effort, and which the tim
 columns (the one that moves more if both do), unless given. Tables of other datasets often name no
 arm (``ang_s0``, ``q1``): they are read for the arm given (``--arm``), and refused without. A time
 column whose name gives no unit is read in the one of s, ms, µs, ns in which its steps match the
-velocities, and the note says which.
+velocities, and the note says which. A time column may also hold dates and times as text
+(``2019-05-12 10:23:45.123456`` as pandas writes a time index, ISO 8601 with a zone,
+``2019/05/12/10:23:45.123456`` as the ``rosbag_to_csv`` tool writes, or times of day alone:
+:func:`_datetimes`), or in Parquet be a timestamp.
 
 A table with no velocity column at all gives q̇ as the central difference of q over its time column
 (one that names its unit) or the rate given (``--rate-hz``), said in a note
@@ -76,6 +79,13 @@ MAX_TIME_S = 9.2e9
 _WITHOUT_VELOCITY = ("position", "effort")
 #: The quote a text table's fields may stand in (``"ang_left_s0"``, ``"0.5"``), as CSV writers put it.
 _QUOTE = '"'
+#: A date and time as text (:func:`_datetimes`): a date (``-`` or ``/`` apart), then ``T``, a space
+#: or ``/``, or no date; a time of day, seconds with up to 9 decimals; a zone.
+_DATETIME = re.compile(
+    r"(?:(?P<date>\d{4}([-/])\d{2}\2\d{2})[T /])?(?P<h>\d{2}):(?P<m>\d{2}):(?P<s>\d{2})(?:\.(?P<frac>\d{1,9}))?(?P<zone>Z|[+-]\d{2}:?\d{2})?"
+)
+_DAY_NS = 86_400 * 1_000_000_000
+_MAX_DAYS = 106_000  # days from 1970 that int64 ns hold, with a margin
 Note = Callable[[str], None]  # takes a one-line message for the user
 
 
@@ -151,9 +161,16 @@ def _read_columns(path: Path) -> dict[str, np.ndarray]:
             raise RecordingFileError(f"{path}: cannot read the Parquet file ({err})") from err
         _refuse_duplicates(path, table.column_names)
         nanoseconds = _nanosecond_columns(table.column_names)
+        wanted = _read_names(path, table.column_names)
+        times = {c.name for c in time_columns(wanted)}
         columns = {}
         for name in table.column_names:
             values = table.column(name).to_numpy(zero_copy_only=False)
+            if values.dtype.kind == "M" and name in times:  # a timestamp (pandas' of a time index)
+                columns[name] = values
+                continue
+            if values.dtype.kind not in "biuf" and name not in wanted:  # text beside the joint columns (a label)
+                continue
             if name in nanoseconds:
                 if not (values.dtype.kind == "i" or (values.dtype.kind == "u" and (values < 2**63).all())):
                     raise RecordingFileError(f"{path}: column {name} must hold integer nanoseconds, got {values.dtype}")
@@ -175,16 +192,18 @@ def _read_columns(path: Path) -> dict[str, np.ndarray]:
     except csv.Error as err:  # a name beyond csv's field size limit
         raise RecordingFileError(f"{path}: the header line is no row of column names ({err})") from err
     _refuse_duplicates(path, names)
-    kept = names
+    kept, times = names, {}
     try:
         try:
             values = _numbers(rows, delimiter)
         except ValueError:
-            kept = _read_names(path, names)
-            if len(kept) in (0, len(names)):
+            wanted = _read_names(path, names)
+            if not wanted:
                 raise
             _refuse_ragged(path, rows, delimiter, len(names))  # a column's place must be the header's in every row
-            values = _numbers(rows, delimiter, usecols=[names.index(n) for n in kept])  # other columns may hold text
+            times = {c.name: _time_texts(path, c.name, rows, delimiter, names.index(c.name)) for c in time_columns(wanted)}
+            kept = [n for n in wanted if times.get(n) is None]  # other columns may hold text, a time column dates
+            values = _numbers(rows, delimiter, usecols=[names.index(n) for n in kept])
         stamps = {
             name: np.loadtxt(rows, delimiter=delimiter, ndmin=1, dtype=np.int64, usecols=names.index(name), comments=None, quotechar=_QUOTE)
             for name in _nanosecond_columns(kept)
@@ -195,7 +214,60 @@ def _read_columns(path: Path) -> dict[str, np.ndarray]:
         raise RecordingFileError(f"{path}: the header names {len(names)} columns but rows have {values.shape[1]}")
     columns = {name: values[:, k] for k, name in enumerate(kept)}
     columns.update(stamps)
+    columns.update({name: dates for name, dates in times.items() if dates is not None})
     return columns
+
+
+def _time_texts(path: Path, name: str, rows: Sequence[str], delimiter: str | None, column: int) -> np.ndarray | None:
+    """The times (N,) datetime64[ns] of a time column ``name`` that holds dates and times as text
+    (:func:`_datetimes`); None where it holds numbers (read with the other columns). Refuses a
+    column of text that is no date and time in some row."""
+    try:
+        _numbers(rows, delimiter, usecols=[column])
+        return None
+    except ValueError:
+        texts = np.loadtxt(rows, delimiter=delimiter, ndmin=1, dtype=str, usecols=column, comments=None, quotechar=_QUOTE)
+    try:
+        return _datetimes(texts)
+    except ValueError as err:
+        raise RecordingFileError(f"{path}: the time column {name} holds neither numbers nor dates and times ({err})") from err
+
+
+def _datetimes(texts: Sequence[str]) -> np.ndarray:
+    """(N,) datetime64[ns] of dates and times as text: ``2019-05-12 10:23:45.123456`` (pandas' CSV
+    of a time index), ISO 8601's ``2019-05-12T10:23:45.123Z`` or with an offset ``+02:00`` (taken
+    off: UTC), ``2019/05/12/10:23:45.123456`` (the ``rosbag_to_csv`` tool's); or times of day
+    alone (``10:23:45.123``), a day added where they go back by more than 12 h (past midnight).
+    ValueError where a text is none of these, or some have a date and some not."""
+    found = [_DATETIME.fullmatch(text.strip()) for text in texts]
+    bad = next((k for k, m in enumerate(found) if m is None), None)
+    if bad is not None:
+        raise ValueError(f"row {bad + 1}: {texts[bad][:40]!r}")
+    dated = {m["date"] is not None for m in found}
+    if len(dated) > 1:
+        raise ValueError("some rows give a date and some do not")
+    hms = np.array([(int(m["h"]), int(m["m"]), int(m["s"])) for m in found], dtype=np.int64).reshape(-1, 3)
+    if (hms[:, 0] > 23).any() or (hms[:, 1] > 59).any() or (hms[:, 2] > 60).any():  # 60: a leap second
+        raise ValueError(f"row {int(np.argmax((hms > [23, 59, 60]).any(axis=1))) + 1}: not a time of day")
+    ns = (hms @ np.array([3600, 60, 1], dtype=np.int64)) * 1_000_000_000
+    ns += np.array([int((m["frac"] or "").ljust(9, "0")) for m in found], dtype=np.int64)
+    ns -= np.array([_offset_s(m["zone"]) for m in found], dtype=np.int64) * 1_000_000_000
+    if dated == {True}:
+        days = np.array([f"{m['date'][:4]}-{m['date'][5:7]}-{m['date'][8:10]}" for m in found], dtype="datetime64[D]").astype(np.int64)
+        if (np.abs(days) > _MAX_DAYS).any():
+            raise ValueError(f"row {int(np.argmax(np.abs(days) > _MAX_DAYS)) + 1}: a date int64 ns cannot hold (1678 to 2261)")
+        ns += days * _DAY_NS
+    else:
+        ns += np.concatenate([[0], np.cumsum(np.diff(ns) < -_DAY_NS // 2)]) * _DAY_NS
+    return ns.astype("datetime64[ns]")
+
+
+def _offset_s(zone: str | None) -> int:
+    """Seconds east of UTC of an ISO 8601 zone (``Z``, ``+02:00``, ``-0530``; none: 0)."""
+    if not zone or zone == "Z":
+        return 0
+    digits = zone[1:].replace(":", "")
+    return (1 if zone[0] == "+" else -1) * (int(digits[:2]) * 3600 + int(digits[2:]) * 60)
 
 
 def _refuse_ragged(path: Path, rows: Sequence[str], delimiter: str | None, width: int) -> None:
@@ -274,6 +346,10 @@ def _time_column_ns(path: Path, columns: dict[str, np.ndarray], time: TimeColumn
     its unit (:mod:`msg_adapters.table_columns`) or, where its name gives none, by the unit in which
     its steps match the velocities qd (:func:`_time_unit_s`; a column of no unit needs them)."""
     values = columns[time.name]
+    if values.dtype.kind == "M":  # dates and times (:func:`_datetimes`, or a Parquet timestamp)
+        if np.isnat(values).any():
+            raise RecordingFileError(f"{path}: {time.name} must hold a time in every row")
+        return values.astype("datetime64[ns]").astype(np.int64)
     if values.dtype.kind in "iu" and time.scale_s == 1e-9:
         return values.astype(np.int64)
     t = np.asarray(values, dtype=np.float64)
@@ -434,7 +510,7 @@ def _positions_velocity(
     Said through ``note``."""
     times = time_columns(columns)
     if times:
-        if times[0].scale_s is None:
+        if times[0].scale_s is None and columns[times[0].name].dtype.kind != "M":
             raise RecordingFileError(
                 f"{path}: has no velocity columns, and its time column {times[0].name} names no unit, which is read from the "
                 f"velocities; name the unit in the header (e.g. {times[0].name}_s or {times[0].name}_ns)"

@@ -102,6 +102,51 @@ def test_columns_of_text_beside_the_joint_columns_are_passed_over(tmp_path: Path
         read_recording(tmp_path / "word.txt", rate_hz=50.0, note=None)
 
 
+def test_a_time_column_of_dates_and_times_gives_the_stamps(tmp_path: Path) -> None:
+    """Dates and times as exports write them, the texts made by Python's datetime (str(), isoformat()
+    with an offset, strftime as the rosbag_to_csv tool and ISO with Z write them), crossing midnight:
+    each read as the UTC time it is, to the ns; times of day alone, a day added past midnight; a
+    Parquet timestamp beside a column of text; a time column that holds neither, refused naming it."""
+    import datetime as dt
+
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    states = joint_states(N, rate_hz=50.0)
+    text = write_baxter_export(tmp_path / "plain.csv", states).read_text().splitlines()
+    start = dt.datetime(2019, 5, 12, 23, 59, 58, 500_000)  # UTC; N samples at 50 Hz pass midnight
+    moments = [start + dt.timedelta(microseconds=int(ns) // 1000) for ns in states["stamps_ns"] - states["stamps_ns"][0]]
+    utc_ns = (int((start - dt.datetime(1970, 1, 1)).total_seconds()) * 1_000_000 + start.microsecond) * 1000
+    want = utc_ns + states["stamps_ns"] - states["stamps_ns"][0]
+    plus2 = dt.timezone(dt.timedelta(hours=2))
+    writers = {
+        "pandas": str,
+        "offset": lambda t: t.replace(tzinfo=dt.timezone.utc).astimezone(plus2).isoformat(),
+        "rosbag_to_csv": lambda t: t.strftime("%Y/%m/%d/%H:%M:%S.%f"),
+        "zulu": lambda t: t.strftime("%Y-%m-%dT%H:%M:%S.%fZ"),
+        "of_day": lambda t: t.strftime("%H:%M:%S.%f"),
+    }
+    for name, write in writers.items():
+        rows = [",".join(["time", *text[0].split()])] + [",".join([write(t), *row.split()]) for t, row in zip(moments, text[1:])]
+        (tmp_path / f"{name}.csv").write_text("\n".join(rows) + "\n")
+        rec = read_recording(tmp_path / f"{name}.csv", note=None)
+        assert_left_arm(rec, states)
+        np.testing.assert_array_equal(rec.stamps_ns - (rec.stamps_ns[0] - want[0] if name == "of_day" else 0), want, err_msg=name)
+    assert str(moments[0]) == "2019-05-12 23:59:58.500000" and str(moments[75]) == "2019-05-13 00:00:00"
+    q, qd, tau = columns(states, arm_joint_names("left"))
+    table = {"time": pa.array(want, pa.timestamp("ns", tz="UTC")), "trial": ["circle"] * N}
+    table |= {f"{p}_{j}": v[:, k] for p, v in (("ang", q), ("vel", qd), ("torq", tau)) for k, j in enumerate(arm_joint_names("left"))}
+    pq.write_table(pa.table(table), tmp_path / "stamped.parquet")
+    rec = read_recording(tmp_path / "stamped.parquet", note=None)
+    assert_left_arm(rec, states)
+    np.testing.assert_array_equal(rec.stamps_ns, want)
+    rows = (tmp_path / "pandas.csv").read_text().splitlines()
+    rows[9] = "yesterday" + rows[9][rows[9].index(",") :]
+    (tmp_path / "word.csv").write_text("\n".join(rows) + "\n")
+    with pytest.raises(RecordingFileError, match="the time column time holds neither numbers nor dates and times \\(row 9: 'yesterday'\\)"):
+        read_recording(tmp_path / "word.csv", note=None)
+
+
 def test_comment_lines_are_passed_over_and_numpy_savetxt_s_header_is_read(tmp_path: Path) -> None:
     states = joint_states(N, rate_hz=50.0)
     q, qd, tau = columns(states, arm_joint_names("left"))
