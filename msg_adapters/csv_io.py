@@ -25,7 +25,7 @@ column whose name gives no unit is read in the one of s, ms, µs, ns in which it
 velocities, and the note says which. A time column may also hold dates and times as text
 (``2019-05-12 10:23:45.123456`` as pandas writes a time index, ISO 8601 with a zone,
 ``2019/05/12/10:23:45.123456`` as the ``rosbag_to_csv`` tool writes, or times of day alone:
-:func:`_datetimes`), or in Parquet be a timestamp.
+:func:`~msg_adapters.datetimes.datetimes`), or in Parquet be a timestamp.
 
 A table with no velocity column at all gives q̇ as the central difference of q over its time column
 (one that names its unit) or the rate given (``--rate-hz``), said in a note
@@ -66,6 +66,7 @@ from baxter_dynamics_ros.core.recording import (
 )  # fmt: skip
 from baxter_dynamics_ros.errors import RecordingFileError
 
+from .datetimes import datetimes
 from .table_columns import QUANTITIES, JointColumn, TimeColumn, bare_joint_names, joint_columns, time_columns
 from .text_files import kind_suffix, read_text
 
@@ -79,13 +80,6 @@ MAX_TIME_S = 9.2e9
 _WITHOUT_VELOCITY = ("position", "effort")
 #: The quote a text table's fields may stand in (``"ang_left_s0"``, ``"0.5"``), as CSV writers put it.
 _QUOTE = '"'
-#: A date and time as text (:func:`_datetimes`): a date (``-`` or ``/`` apart), then ``T``, a space
-#: or ``/``, or no date; a time of day, seconds with up to 9 decimals; a zone.
-_DATETIME = re.compile(
-    r"(?:(?P<date>\d{4}([-/])\d{2}\2\d{2})[T /])?(?P<h>\d{2}):(?P<m>\d{2}):(?P<s>\d{2})(?:\.(?P<frac>\d{1,9}))?(?P<zone>Z|[+-]\d{2}:?\d{2})?"
-)
-_DAY_NS = 86_400 * 1_000_000_000
-_MAX_DAYS = 106_000  # days from 1970 that int64 ns hold, with a margin
 Note = Callable[[str], None]  # takes a one-line message for the user
 
 
@@ -220,7 +214,7 @@ def _read_columns(path: Path) -> dict[str, np.ndarray]:
 
 def _time_texts(path: Path, name: str, rows: Sequence[str], delimiter: str | None, column: int) -> np.ndarray | None:
     """The times (N,) datetime64[ns] of a time column ``name`` that holds dates and times as text
-    (:func:`_datetimes`); None where it holds numbers (read with the other columns). Refuses a
+    (:func:`~msg_adapters.datetimes.datetimes`); None where it holds numbers (read with the other columns). Refuses a
     column of text that is no date and time in some row."""
     try:
         _numbers(rows, delimiter, usecols=[column])
@@ -228,46 +222,9 @@ def _time_texts(path: Path, name: str, rows: Sequence[str], delimiter: str | Non
     except ValueError:
         texts = np.loadtxt(rows, delimiter=delimiter, ndmin=1, dtype=str, usecols=column, comments=None, quotechar=_QUOTE)
     try:
-        return _datetimes(texts)
+        return datetimes(texts)
     except ValueError as err:
         raise RecordingFileError(f"{path}: the time column {name} holds neither numbers nor dates and times ({err})") from err
-
-
-def _datetimes(texts: Sequence[str]) -> np.ndarray:
-    """(N,) datetime64[ns] of dates and times as text: ``2019-05-12 10:23:45.123456`` (pandas' CSV
-    of a time index), ISO 8601's ``2019-05-12T10:23:45.123Z`` or with an offset ``+02:00`` (taken
-    off: UTC), ``2019/05/12/10:23:45.123456`` (the ``rosbag_to_csv`` tool's); or times of day
-    alone (``10:23:45.123``), a day added where they go back by more than 12 h (past midnight).
-    ValueError where a text is none of these, or some have a date and some not."""
-    found = [_DATETIME.fullmatch(text.strip()) for text in texts]
-    bad = next((k for k, m in enumerate(found) if m is None), None)
-    if bad is not None:
-        raise ValueError(f"row {bad + 1}: {texts[bad][:40]!r}")
-    dated = {m["date"] is not None for m in found}
-    if len(dated) > 1:
-        raise ValueError("some rows give a date and some do not")
-    hms = np.array([(int(m["h"]), int(m["m"]), int(m["s"])) for m in found], dtype=np.int64).reshape(-1, 3)
-    if (hms[:, 0] > 23).any() or (hms[:, 1] > 59).any() or (hms[:, 2] > 60).any():  # 60: a leap second
-        raise ValueError(f"row {int(np.argmax((hms > [23, 59, 60]).any(axis=1))) + 1}: not a time of day")
-    ns = (hms @ np.array([3600, 60, 1], dtype=np.int64)) * 1_000_000_000
-    ns += np.array([int((m["frac"] or "").ljust(9, "0")) for m in found], dtype=np.int64)
-    ns -= np.array([_offset_s(m["zone"]) for m in found], dtype=np.int64) * 1_000_000_000
-    if dated == {True}:
-        days = np.array([f"{m['date'][:4]}-{m['date'][5:7]}-{m['date'][8:10]}" for m in found], dtype="datetime64[D]").astype(np.int64)
-        if (np.abs(days) > _MAX_DAYS).any():
-            raise ValueError(f"row {int(np.argmax(np.abs(days) > _MAX_DAYS)) + 1}: a date int64 ns cannot hold (1678 to 2261)")
-        ns += days * _DAY_NS
-    else:
-        ns += np.concatenate([[0], np.cumsum(np.diff(ns) < -_DAY_NS // 2)]) * _DAY_NS
-    return ns.astype("datetime64[ns]")
-
-
-def _offset_s(zone: str | None) -> int:
-    """Seconds east of UTC of an ISO 8601 zone (``Z``, ``+02:00``, ``-0530``; none: 0)."""
-    if not zone or zone == "Z":
-        return 0
-    digits = zone[1:].replace(":", "")
-    return (1 if zone[0] == "+" else -1) * (int(digits[:2]) * 3600 + int(digits[2:]) * 60)
 
 
 def _refuse_ragged(path: Path, rows: Sequence[str], delimiter: str | None, width: int) -> None:
@@ -346,7 +303,7 @@ def _time_column_ns(path: Path, columns: dict[str, np.ndarray], time: TimeColumn
     its unit (:mod:`msg_adapters.table_columns`) or, where its name gives none, by the unit in which
     its steps match the velocities qd (:func:`_time_unit_s`; a column of no unit needs them)."""
     values = columns[time.name]
-    if values.dtype.kind == "M":  # dates and times (:func:`_datetimes`, or a Parquet timestamp)
+    if values.dtype.kind == "M":  # dates and times as text, or a Parquet timestamp
         if np.isnat(values).any():
             raise RecordingFileError(f"{path}: {time.name} must hold a time in every row")
         return values.astype("datetime64[ns]").astype(np.int64)

@@ -1,6 +1,6 @@
 """Joint states of a ROS topic dumped to text, one message after another: the CSV tables of
-``rostopic echo -p`` and of bagpy's ``bagreader.message_by_topic``, and the messages (YAML) that
-``rostopic echo`` and ``ros2 topic echo`` print.
+``rostopic echo -p``, of bagpy's ``bagreader.message_by_topic`` and of the ``rosbag_to_csv`` tool,
+and the messages (YAML) that ``rostopic echo`` and ``ros2 topic echo`` print.
 
 How many labs publish their Baxter recordings (``rostopic echo -p /robot/joint_states > run.csv``,
 or ``-b run.bag`` for a bag). The layout is rostopic's plot format:
@@ -30,6 +30,15 @@ the header, the joint names as one field (the list as Python prints it, ``['head
 …]``; ``name_0,…`` where they are split like the arrays), then the arrays. Its rows are read as
 rostopic's are, each by its own names.
 
+The ``rosbag_to_csv`` tool (AtsushiSakai/rosbag_to_csv, a ROS 1 bag's topics to CSV files) writes a
+header of each field's path, ``time,.header.seq,.header.stamp.secs,.header.stamp.nsecs,
+.header.frame_id,.name,.position,.velocity,.effort``, and per message the receive time as local date
+and time (``2016/05/12/10:23:45.123456``), then each field as Python prints it, in double quotes where
+that holds a comma: the names as bagpy's one field, each array one field too (``"(0.1, -0.2, …)"``).
+It is read as bagpy's table, the receive times as :func:`~msg_adapters.datetimes.datetime_ns` reads
+them (local time taken as UTC: only where every header stamp is zero are they used, and then only
+their differences matter).
+
 ``rostopic echo /robot/joint_states > run.txt`` (ROS 1) and ``ros2 topic echo`` print each message
 as YAML, ``---`` after it: ``header:`` first (its ``stamp``'s ``secs``/``nsecs``, ROS 2's ``sec``/
 ``nanosec``), then ``name``, ``position``, ``velocity``, ``effort``, each a list in brackets
@@ -55,6 +64,7 @@ from baxter_dynamics_ros.core.recording import Recording
 from baxter_dynamics_ros.errors import RecordingFileError
 
 from .bag_io import TopicData, joint_state_recording
+from .datetimes import datetime_ns
 from .serialized_joint_states import JointStateBlock
 from .text_files import first_line, open_text, reading
 
@@ -72,6 +82,9 @@ CHUNK_ROWS = 8192
 BAGPY_TIME = "Time"
 BAGPY_NAMES = ("name", "name_0")
 BAGPY_STAMP = ("header.stamp.secs", "header.stamp.nsecs")
+#: rosbag_to_csv's header: its first field, and the field of the joint names.
+ROSBAG_TO_CSV_TIME = "time"
+ROSBAG_TO_CSV_NAMES = ".name"
 #: The first line of messages as ``rostopic echo`` and ``ros2 topic echo`` print them; the line after each.
 ECHO_START = "header:"
 ECHO_END = "---"
@@ -89,7 +102,7 @@ _ARRAY_FIELD = re.compile(r"_?\d+$")
 
 def is_topic_dump(path: str | os.PathLike[str]) -> bool:
     """Whether ``path`` is a file whose first line is the header of joint states dumped by ``rostopic
-    echo -p`` or bagpy, or the first line of messages echoed (module docstring)."""
+    echo -p``, bagpy or rosbag_to_csv, or the first line of messages echoed (module docstring)."""
     first = first_line(path, SNIFF_BYTES)
     return first is not None and (_header_fields(first) is not None or _bagpy_fields(first) is not None or _is_echo(first))
 
@@ -106,13 +119,16 @@ def _header_fields(line: str) -> list[str] | None:
 
 
 def _bagpy_fields(line: str) -> list[str] | None:
-    """The fields of bagpy's header (trailing empty ones dropped), None if the line is none."""
+    """The fields of bagpy's header (trailing empty ones dropped), or of rosbag_to_csv's (its
+    fields' leading dots dropped); None if the line is neither."""
     try:
         fields = next(csv.reader([line.rstrip("\r\n")]), [])
     except csv.Error:  # a carriage return or a quote no CSV writer puts in a header
         return None
     while fields and not fields[-1]:
         fields.pop()
+    if fields[:1] == [ROSBAG_TO_CSV_TIME] and ROSBAG_TO_CSV_NAMES in fields:
+        return [ROSBAG_TO_CSV_TIME] + [f.removeprefix(".") for f in fields[1:]]
     return fields if fields[:1] == [BAGPY_TIME] and any(name in fields for name in BAGPY_NAMES) else None
 
 
@@ -200,20 +216,35 @@ class _Layout:
         it: its rows are read in the full layout."""
         arrays = [f.removeprefix("field.") for f in dict.fromkeys(_ARRAY_FIELD.sub("", f) for f in fields if _ARRAY_FIELD.search(f))]
         scalars = [f for f in fields if not _ARRAY_FIELD.search(f)]
-        wanted = ("actual_position", "actual_velocity", "actual_effort") if "actual_position" in arrays else ("position", "velocity", "effort")
+        wanted = _ECHO_ARRAYS[1] if _ECHO_ARRAYS[1][0] in arrays else _ECHO_ARRAYS[0]
         if all(w in arrays for w in wanted):
             return cls(tuple(arrays.index(w) for w in wanted), len(arrays), len(scalars))
         if wanted[0] == "position" and not scalars and set(arrays) <= set(wanted):
             return cls((0, 1, 2), 3, 0)
-        raise RecordingFileError(
-            f"{path}: not JointState or SEAJointState messages: after the joint names the header names arrays "
-            f"{', '.join(arrays) or 'none'} and fields {', '.join(scalars) or 'none'}; expected position, velocity, effort "
-            "(JointState) or actual_position, actual_velocity, actual_effort (SEAJointState)"
-        )
+        raise _not_joint_states(path, arrays, scalars)
+
+    @classmethod
+    def whole_fields(cls, path: Path, fields: list[str]) -> tuple[int, int, int]:
+        """Where q, q̇ and effort are among the fields after the joint names of a header that gives
+        each array one field (rosbag_to_csv's): a JointState's position, velocity, effort, or a
+        SEAJointState's actual_* (every one of them there)."""
+        wanted = _ECHO_ARRAYS[1] if _ECHO_ARRAYS[1][0] in fields else _ECHO_ARRAYS[0]
+        if not all(w in fields for w in wanted):
+            raise _not_joint_states(path, fields, [])
+        return (fields.index(wanted[0]), fields.index(wanted[1]), fields.index(wanted[2]))
 
     def arrays(self, values: np.ndarray, m: int) -> list[np.ndarray]:
         """q, q̇, effort (n, m) of rows of numbers (n, count·m + trailing)."""
         return [values[:, i * m : (i + 1) * m] for i in self.index]
+
+
+def _not_joint_states(path: Path, arrays: list[str], scalars: list[str]) -> RecordingFileError:
+    """The error of a header whose fields after the joint names are no JointState's or SEAJointState's."""
+    return RecordingFileError(
+        f"{path}: not JointState or SEAJointState messages: after the joint names the header names arrays "
+        f"{', '.join(arrays) or 'none'} and fields {', '.join(scalars) or 'none'}; expected position, velocity, effort "
+        "(JointState) or actual_position, actual_velocity, actual_effort (SEAJointState)"
+    )
 
 
 class _Rows:
@@ -337,7 +368,14 @@ def _bagpy_rows(path: Path, header: list[str], lines: Iterable[str]) -> tuple[_R
     listed = header[names_at] == BAGPY_NAMES[0]  # the names in one field
     stamp_at = [header.index(h) for h in BAGPY_STAMP if h in header[:names_at]]
     listing = None  # the last row's field of names, read once while it repeats
-    rows = _Rows(_Layout.of_header(path, [h for h in header[names_at:] if _ARRAY_FIELD.sub("", h) != "name"]))
+    time_ns = datetime_ns if header[0] == ROSBAG_TO_CSV_TIME else _seconds_ns
+    after = header[names_at + 1 :]
+    if listed and not any(_ARRAY_FIELD.search(h) for h in after):  # rosbag_to_csv's: each array in one field
+        whole = [names_at + 1 + k for k in _Layout.whole_fields(path, after)]
+        rows = _Rows(_Layout((0, 1, 2), 3, 0))
+    else:
+        whole = []
+        rows = _Rows(_Layout.of_header(path, [h for h in header[names_at:] if _ARRAY_FIELD.sub("", h) != "name"]))
     for fields in _csv_rows(lines):
         while fields and not fields[-1]:  # a spreadsheet's re-save may end rows with a comma
             fields.pop()
@@ -346,7 +384,7 @@ def _bagpy_rows(path: Path, header: list[str], lines: Iterable[str]) -> tuple[_R
         try:
             if fields is None or len(fields) <= names_at:
                 raise ValueError("too few fields")
-            time_ns = _seconds_ns(fields[0])
+            receive_ns = time_ns(fields[0])
             stamp_ns = _stamp_ns(fields[stamp_at[0]], fields[stamp_at[1]]) if len(stamp_at) == 2 else 0
         except ValueError:
             unreadable += 1
@@ -354,12 +392,18 @@ def _bagpy_rows(path: Path, header: list[str], lines: Iterable[str]) -> tuple[_R
         if listed:
             if fields[names_at] != listing:
                 listing, names = fields[names_at], _listed_names(fields[names_at])
-            numbers = fields[names_at + 1 :]
+            numbers = [_tuple_items(fields[k]) if k < len(fields) else "" for k in whole] if whole else fields[names_at + 1 :]
         else:
             m = _leading_texts(fields[names_at:])
             names, numbers = tuple(fields[names_at : names_at + m]), fields[names_at + m :]
-        rows.add(time_ns, stamp_ns, names, ",".join(numbers))
+        rows.add(receive_ns, stamp_ns, names, ",".join(numbers))
     return rows, unreadable
+
+
+def _tuple_items(field: str) -> str:
+    """The numbers of a tuple or list as Python prints it (``(0.1, -0.2)``, rosbag_to_csv's arrays),
+    comma-separated."""
+    return field.strip(" ()[]").replace(" ", "")
 
 
 def _unquoted(text: str) -> str:
@@ -465,7 +509,8 @@ def _topic_data(path: str | os.PathLike[str], note: Callable[[str], None] | None
         else:
             raise RecordingFileError(
                 f"{path}: not a table of rostopic echo -p joint states (its header must start {HEADER_START!r} and name {NAMES_FIELD}), "
-                f"of bagpy's (its header must start {BAGPY_TIME!r} and name {' or '.join(BAGPY_NAMES)}), or messages echoed (first line {ECHO_START!r})"
+                f"of bagpy's (its header must start {BAGPY_TIME!r} and name {' or '.join(BAGPY_NAMES)}), of rosbag_to_csv's "
+                f"(start {ROSBAG_TO_CSV_TIME!r}, name {ROSBAG_TO_CSV_NAMES}), or messages echoed (first line {ECHO_START!r})"
             )
     rows.flush()
     if not rows.times_ns:

@@ -215,6 +215,31 @@ def write_bagpy_table(path: Path, messages: Sequence[tuple], names_split: bool =
     return path
 
 
+def write_rosbag_to_csv_table(path: Path, messages: Sequence[tuple]) -> Path:
+    """A topic's JointStates as the rosbag_to_csv tool (AtsushiSakai/rosbag_to_csv, rosbag_to_csv.py)
+    writes them with its header: ``time`` then each field's path (``.header.seq``, …, ``.name``,
+    ``.position``), from the first message; per message the receive time as local time
+    (``datetime.fromtimestamp(t).strftime("%Y/%m/%d/%H:%M:%S.%f")``), then every field as Python's
+    str() prints it, in double quotes where that holds a comma (a list of names, a tuple of floats as
+    genpy decodes a float64[]). messages: (receive_ns, stamp_ns, names, position, velocity,
+    effort[, frame_id]) each."""
+    import datetime
+
+    def text(value: object) -> str:
+        printed = str(value)
+        return f'"{printed}"' if "," in printed else printed
+
+    with open(path, "w") as f:
+        f.write("time,.header.seq,.header.stamp.secs,.header.stamp.nsecs,.header.frame_id,.name,.position,.velocity,.effort\n")
+        for seq, (receive_ns, stamp_ns, names, *rest) in enumerate(messages):
+            secs, nsecs = divmod(int(stamp_ns), 1_000_000_000)
+            frame_id = rest[3] if len(rest) > 3 else ""
+            values = [seq, secs, nsecs, frame_id, list(names), *(tuple(float(v) for v in a) for a in rest[:3])]
+            when = datetime.datetime.fromtimestamp(receive_ns / 1e9).strftime("%Y/%m/%d/%H:%M:%S.%f")
+            f.write(when + "".join("," + text(v) for v in values) + "\n")
+    return path
+
+
 def savemat_v73(path: Path, variables: dict, track_order: bool = False) -> Path:
     """A MATLAB v7.3 file as MATLAB writes one: a 512-byte user block holding the MAT header (text,
     version 0x0200, "IM"), then HDF5 with one dataset per variable, column-major (a MATLAB N×M matrix

@@ -143,7 +143,7 @@ def test_a_time_column_of_dates_and_times_gives_the_stamps(tmp_path: Path) -> No
     rows = (tmp_path / "pandas.csv").read_text().splitlines()
     rows[9] = "yesterday" + rows[9][rows[9].index(",") :]
     (tmp_path / "word.csv").write_text("\n".join(rows) + "\n")
-    with pytest.raises(RecordingFileError, match="the time column time holds neither numbers nor dates and times \\(row 9: 'yesterday'\\)"):
+    with pytest.raises(RecordingFileError, match="the time column time holds neither numbers nor dates and times \\(row 9: not a date and time: 'yesterday'\\)"):
         read_recording(tmp_path / "word.csv", note=None)
 
 

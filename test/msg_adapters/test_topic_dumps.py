@@ -5,6 +5,7 @@ back exactly through ``read_recording``."""
 
 from __future__ import annotations
 
+import datetime
 import subprocess
 import sys
 from pathlib import Path
@@ -12,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from recorded_bags import (
-    BAXTER_JOINTS, columns, echo_message, joint_states, rostopic_plot_header, rostopic_plot_row, write_bagpy_table, write_rostopic_table,
+    BAXTER_JOINTS, columns, echo_message, joint_states, rostopic_plot_header, rostopic_plot_row, write_bagpy_table, write_rosbag_to_csv_table, write_rostopic_table,
 )
 from repo_paths import REPO
 
@@ -317,6 +318,40 @@ def test_a_bagpy_table_of_gripper_messages_frame_ids_and_bad_rows(tmp_path: Path
         f"WARNING: {path}: 4 of {len(messages) + 6} rows skipped: no time, header stamp and joint names could be read from them",
         f"WARNING: {path}: {len(messages) - 60 + 2} of {len(messages) + 2} messages in this file skipped as malformed "
         f"({len(messages) - 60 + 1} {SkipReason.MISSING_JOINT.value}, 1 {SkipReason.ARRAY_LENGTH.value})",
+    ]
+
+
+def test_a_rosbag_to_csv_table_reads_back_exactly_by_its_header_stamps(tmp_path: Path) -> None:
+    """rosbag_to_csv's CSV of /robot/joint_states (each array one quoted field, the receive time as
+    local date and time): read as bagpy's, stamps from the header, values to the last bit; the
+    receive times where every header stamp is zero; a gripper's message, an empty effort array and
+    a row whose time is no date skipped and counted."""
+    states = joint_states(N)
+    messages = bagpy_messages(states, 2_500_000)
+    path = write_rosbag_to_csv_table(tmp_path / "robot-joint_states.csv", messages)
+    lines = path.read_text().splitlines()
+    assert is_topic_dump(path) and lines[0].startswith("time,.header.seq,.header.stamp.secs,.header.stamp.nsecs,.header.frame_id,.name,")
+    assert lines[1].split(",")[5].startswith('"[\'head_nod\'')
+    notes: list[str] = []
+    assert_arm(read_recording(path, note=notes.append), states, "right")
+    assert_arm(read_recording(path, arm="left", note=notes.append), states, "left")
+    assert notes == []
+    unstamped = write_rosbag_to_csv_table(tmp_path / "unstamped.csv", [(m[0], 0, *m[2:]) for m in messages])
+    local = [datetime.datetime.fromtimestamp(m[0] / 1e9) - datetime.datetime(1970, 1, 1) for m in messages]  # as written: local, µs
+    assert_arm(read_recording(unstamped, note=None), states, "right", stamps_ns=np.array([t // datetime.timedelta(microseconds=1) * 1000 for t in local]))
+    gripper = ("l_gripper_l_finger_joint",)
+    late = (messages[10][0] + 1, messages[10][1] + 1)
+    odd = [*messages[:11], (*late, gripper, [0.01], [0.0], [0.0]), (*late, *messages[10][2:5], []), *messages[11:]]
+    path = write_rosbag_to_csv_table(tmp_path / "odd.csv", odd)
+    lines = path.read_text().splitlines()
+    assert lines[12].endswith(',[\'l_gripper_l_finger_joint\'],"(0.01,)","(0.0,)","(0.0,)"') and lines[13].endswith(",()")
+    lines.insert(14, lines[13].removesuffix(",()"))  # a row that ends before its effort field
+    lines.insert(5, "yesterday" + lines[5][lines[5].index(",") :])
+    path.write_text("\n".join(lines) + "\n")
+    assert_arm(read_recording(path, note=notes.append), states, "right")
+    assert notes == [
+        f"WARNING: {path}: 1 of {len(odd) + 2} rows skipped: no time, header stamp and joint names could be read from them",
+        f"WARNING: {path}: 3 of {len(odd) + 1} messages in this file skipped as malformed (1 {SkipReason.MISSING_JOINT.value}, 2 {SkipReason.ARRAY_LENGTH.value})",
     ]
 
 
