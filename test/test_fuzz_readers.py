@@ -19,7 +19,9 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from repo_paths import REPO
-from recorded_bags import BAXTER_JOINTS, echo_message, joint_states, rostopic_plot_header, rostopic_plot_row, write_bagpy_table
+from recorded_bags import (
+    BAXTER_JOINTS, echo_message, joint_states, rostopic_plot_header, rostopic_plot_row, write_bagpy_table, write_rosbag_to_csv_table,
+)  # fmt: skip
 
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.cli.simulate import load_spec
@@ -149,12 +151,16 @@ def test_yaml_nested_too_deep_is_our_error() -> None:
 
 # ----------------------------------------------------------------------------------- tables
 def _table(layout: str, delimiter: str) -> str:
+    """A table of the right arm's joints: the Baxter export's layout, the generic one (stamp_ns), or
+    the generic one with a time column of dates and times ("dated")."""
     states = joint_states(30, names=BAXTER_JOINTS)
     prefixes = ("ang_", "vel_", "torq_") if layout == "baxter export" else ("position_", "velocity_", "effort_")
     columns = {"stamp_ns": states["stamps_ns"]} if layout == "generic" else {}
+    if layout == "dated":
+        columns = {"time": [f"2019-05-12 10:00:{t * 1e-9 % 60:09.6f}" for t in states["stamps_ns"]]}
     for prefix, key in zip(prefixes, ("position", "velocity", "effort")):
         columns.update({f"{prefix}{name}": states[key][:, k] for k, name in enumerate(BAXTER_JOINTS) if name.startswith("right_")})
-    rows = [delimiter.join(repr(float(v)) if not isinstance(v, np.integer) else str(v) for v in row) for row in zip(*columns.values())]
+    rows = [delimiter.join(repr(float(v)) if isinstance(v, float) else str(v) for v in row) for row in zip(*columns.values())]
     return "\n".join([delimiter.join(columns), *rows]) + "\n"
 
 
@@ -172,6 +178,13 @@ def _bagpy_table() -> str:
     return write_bagpy_table(_folder / "bagpy-source.csv", messages).read_text()
 
 
+def _rosbag_to_csv_table() -> str:
+    """Joint states as the rosbag_to_csv tool writes them (every Baxter joint, 30 messages)."""
+    states = joint_states(30, names=BAXTER_JOINTS)
+    messages = [(t, t, BAXTER_JOINTS, *(states[f][k] for f in ("position", "velocity", "effort"))) for k, t in enumerate(states["stamps_ns"])]
+    return write_rosbag_to_csv_table(_folder / "rosbag-to-csv-source.csv", messages).read_text()
+
+
 def _echo_dump(ros2: bool) -> str:
     """Joint states as ``rostopic echo`` or ``ros2 topic echo`` prints them (every Baxter joint, 30 messages)."""
     states = joint_states(30, names=BAXTER_JOINTS)
@@ -179,7 +192,10 @@ def _echo_dump(ros2: bool) -> str:
     return "\n".join(echo_message(t, BAXTER_JOINTS, *(a[k] for a in arrays), ros2=ros2) for k, t in enumerate(states["stamps_ns"])) + "\n"
 
 
-TABLES = [_table("baxter export", " "), _table("generic", ","), _rostopic_table(), _bagpy_table(), _echo_dump(False), _echo_dump(True)]
+TABLES = [
+    _table("baxter export", " "), _table("generic", ","), _table("dated", ","), _rostopic_table(), _bagpy_table(), _rosbag_to_csv_table(),
+    _echo_dump(False), _echo_dump(True),
+]  # fmt: skip
 tokens = st.one_of(
     st.floats(allow_nan=True, allow_infinity=True).map(repr),
     st.sampled_from(["", "nan", "inf", "-inf", "1e999", "-", "0x10", "1,5", "١", "NaN", "True", "stamp_ns", "ang_s0"]),
@@ -267,17 +283,19 @@ def parquet_tables(draw) -> bytes:
 
     n = draw(st.integers(0, 12))
     joints = [name for name in BAXTER_JOINTS if name.startswith("right_")]
-    names = draw(st.lists(st.sampled_from(["stamp_ns", "time_s", *(f"{p}{j}" for p in ("position_", "velocity_", "effort_") for j in joints)]), unique=True, max_size=24))
+    names = draw(st.lists(st.sampled_from(["stamp_ns", "time_s", "time", "trial", *(f"{p}{j}" for p in ("position_", "velocity_", "effort_") for j in joints)]), unique=True, max_size=24))
     cells = {
         "float": st.floats(allow_nan=True, allow_infinity=True) | st.none(),
         "int": st.integers(-(2**63), 2**63 - 1),
         "text": st.text(max_size=4),
         "bool": st.booleans(),
+        "timestamp": st.integers(-(2**63) + 1, 2**63 - 1) | st.none(),
     }
+    types = {"float": pa.float64(), "int": pa.int64(), "text": pa.string(), "bool": pa.bool_(), "timestamp": pa.timestamp("ns", tz="UTC")}
     columns = {}
     for name in names:
         kind = draw(st.sampled_from(list(cells)))
-        columns[name] = pa.array(draw(st.lists(cells[kind], min_size=n, max_size=n)), type={"float": pa.float64(), "int": pa.int64(), "text": pa.string(), "bool": pa.bool_()}[kind])
+        columns[name] = pa.array(draw(st.lists(cells[kind], min_size=n, max_size=n)), type=types[kind])
     buffer = io.BytesIO()
     pq.write_table(pa.table(columns) if columns else pa.table({"x": pa.array([], pa.float64())}), buffer)
     return buffer.getvalue()
@@ -292,7 +310,7 @@ def test_table_reader_on_parquet_files_of_any_column_types() -> None:
     check()
 
 
-@pytest.mark.parametrize("dump", [_rostopic_table, _bagpy_table, lambda: _echo_dump(True)], ids=["rostopic", "bagpy", "echo"])
+@pytest.mark.parametrize("dump", [_rostopic_table, _bagpy_table, _rosbag_to_csv_table, lambda: _echo_dump(True)], ids=["rostopic", "bagpy", "rosbag_to_csv", "echo"])
 def test_topic_dump_reader_on_random_rows_under_its_header(dump) -> None:
     """Random bytes or text never start with rostopic's or bagpy's header or an echo's first line:
     here every file does, then rows of random fields (numbers, names, lists of names, an echo's
