@@ -5,14 +5,15 @@ Published recordings name their columns in many ways (``ang_left_s0``, ``positio
 ``left_s0_pos``, ``left_s0.effort``, ``q1 … q7``, ``tau_1``, ``time [s]``). A name is read as its
 words (letters and digits, split at anything else, any case): one word of a quantity, the joint
 (Baxter's ``s0 … w2``, after an optional side ``left``/``l``/``right``/``r``) or its index, and
-nothing else but the unit and words that change no meaning (``joint``, ``measured``, ``actual``).
+nothing else but the unit and words that change no meaning (``joint``, ``state``, ``measured``,
+``actual``: ``joint_states.position.left_s0``).
 A name with any other word is not a joint column: ``desired_position_s0``, ``acceleration_s0``,
 ``gravity_left_s0`` are left alone, as are columns of other joints (``head_pan``). A name that
 begins with a topic's path, as PlotJuggler's CSV export writes them
 (``/robot/joint_states/left_s0/position``), is read from the path's segment that names the joint.
 
 - quantity words: position ``position pos ang angle q qpos theta``; velocity ``velocity vel qd dq
-  qdot qvel``; effort ``effort eff torque torq tau trq`` (plurals too);
+  qdot qvel speed dtheta thetadot``; effort ``effort eff torque torq tau trq`` (plurals too);
 - units: SI (``rad``, ``rad/s``, ``N·m``/``Nm``) as the package uses them, or degrees (``deg``,
   ``deg/s``) for positions and velocities, converted; any other unit word makes the name unknown;
 - indexed joints (``q1 … q7``, ``dq_0 … dq_6``, ``tau[1]``): Baxter's order s0, s1, e0, e1, w0,
@@ -42,12 +43,12 @@ __all__ = ["QUANTITIES", "JointColumn", "TimeColumn", "bare_joint_names", "block
 QUANTITIES = ("position", "velocity", "effort")
 _QUANTITY_WORDS = {
     "position": ("position", "positions", "pos", "ang", "angle", "angles", "q", "qpos", "theta"),
-    "velocity": ("velocity", "velocities", "vel", "qd", "dq", "qdot", "qvel"),
+    "velocity": ("velocity", "velocities", "vel", "qd", "dq", "qdot", "qvel", "speed", "speeds", "dtheta", "thetadot"),
     "effort": ("effort", "efforts", "eff", "torque", "torques", "torq", "tau", "trq"),
 }
 _QUANTITY_OF = {word: quantity for quantity, words in _QUANTITY_WORDS.items() for word in words}
 _SIDE_OF = {"left": "left", "l": "left", "right": "right", "r": "right"}
-_NEUTRAL = frozenset({"joint", "joints", "measured", "meas", "actual"})
+_NEUTRAL = frozenset({"joint", "joints", "state", "states", "measured", "meas", "actual"})
 #: Unit words that leave SI values as they are (rad, rad/s, N·m), and the degree's.
 _SI_UNITS = frozenset({"rad", "rads", "s", "sec", "nm", "n", "m"})
 _DEGREE_UNITS = frozenset({"deg", "degs", "degree", "degrees"})

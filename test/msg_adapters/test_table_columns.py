@@ -40,7 +40,8 @@ def test_names_say_quantity_side_and_joint() -> None:
     found = joint_columns(
         ["ang_left_s0", "Left_S1.Effort", "r_e0_vel", "q3", "tau[7]", "dq_0", "position_w2 [deg]", "effort_w1 [Nm]",
          "desired_position_s0", "acceleration_left_s0", "gravity_s1", "head_pan", "field.position0", "effort_w0_deg",
-         "/robot/limb/left/commanded_position/left_e1", "/robot/joint_states/head_pan/position"]
+         "/robot/limb/left/commanded_position/left_e1", "/robot/joint_states/head_pan/position", "joint_states.velocity.left_w0",
+         "S1_speed", "dtheta_e1", "desired_state_position_w1"]
     )  # fmt: skip
     said = {key: (c.name, c.scale) for key, c in found.items()}
     assert said == {
@@ -49,6 +50,9 @@ def test_names_say_quantity_side_and_joint() -> None:
         ("velocity", "right", "e0"): ("r_e0_vel", 1.0),
         ("position", None, "w2"): ("position_w2 [deg]", math.pi / 180.0),
         ("effort", None, "w1"): ("effort_w1 [Nm]", 1.0),
+        ("velocity", "left", "w0"): ("joint_states.velocity.left_w0", 1.0),
+        ("velocity", None, "s1"): ("S1_speed", 1.0),
+        ("velocity", None, "e1"): ("dtheta_e1", 1.0),
     }  # q3, tau[7], dq_0: one index of seven is no arm's; the rest name something else
 
 
