@@ -15,9 +15,10 @@ import numpy as np
 __all__ = ["datetime_ns", "datetimes"]
 
 #: A date and time as text: a date (``-`` or ``/`` apart), then ``T``, a space or ``/``, or no
-#: date; a time of day, seconds with up to 9 decimals; a zone.
+#: date; a time of day, seconds with up to 9 decimals (after a point, or ISO 8601's comma, as
+#: spreadsheets write where it is the decimal mark); a zone.
 _DATETIME = re.compile(
-    r"(?:(?P<date>\d{4}([-/])\d{2}\2\d{2})[T /])?(?P<h>\d{2}):(?P<m>\d{2}):(?P<s>\d{2})(?:\.(?P<frac>\d{1,9}))?(?P<zone>Z|[+-]\d{2}:?\d{2})?"
+    r"(?:(?P<date>\d{4}([-/])\d{2}\2\d{2})[T /])?(?P<h>\d{2}):(?P<m>\d{2}):(?P<s>\d{2})(?:[.,](?P<frac>\d{1,9}))?(?P<zone>Z|[+-]\d{2}:?\d{2})?"
 )
 _DAY_NS = 86_400 * 1_000_000_000
 _SECOND_NS = 1_000_000_000

@@ -104,9 +104,10 @@ def test_columns_of_text_beside_the_joint_columns_are_passed_over(tmp_path: Path
 
 def test_a_time_column_of_dates_and_times_gives_the_stamps(tmp_path: Path) -> None:
     """Dates and times as exports write them, the texts made by Python's datetime (str(), isoformat()
-    with an offset, strftime as the rosbag_to_csv tool and ISO with Z write them), crossing midnight:
-    each read as the UTC time it is, to the ns; times of day alone, a day added past midnight; a
-    Parquet timestamp beside a column of text; a time column that holds neither, refused naming it."""
+    with an offset, strftime as the rosbag_to_csv tool and ISO with Z write them, with a decimal
+    comma), crossing midnight: each read as the UTC time it is, to the ns; times of day alone, a day
+    added past midnight; a Parquet timestamp beside a column of text; a time column that holds
+    neither, refused naming it."""
     import datetime as dt
 
     import pyarrow as pa
@@ -125,9 +126,13 @@ def test_a_time_column_of_dates_and_times_gives_the_stamps(tmp_path: Path) -> No
         "rosbag_to_csv": lambda t: t.strftime("%Y/%m/%d/%H:%M:%S.%f"),
         "zulu": lambda t: t.strftime("%Y-%m-%dT%H:%M:%S.%fZ"),
         "of_day": lambda t: t.strftime("%H:%M:%S.%f"),
+        "decimal_comma": str,  # a spreadsheet's export where the comma is the decimal mark
     }
     for name, write in writers.items():
         rows = [",".join(["time", *text[0].split()])] + [",".join([write(t), *row.split()]) for t, row in zip(moments, text[1:])]
+        if name == "decimal_comma":
+            rows = [row.replace(",", ";").replace(".", ",") for row in rows]
+            assert rows[1].startswith("2019-05-12 23:59:58,500000;")
         (tmp_path / f"{name}.csv").write_text("\n".join(rows) + "\n")
         rec = read_recording(tmp_path / f"{name}.csv", note=None)
         assert_left_arm(rec, states)
