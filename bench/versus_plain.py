@@ -71,6 +71,9 @@ class Rotation:
     #: joint suffix of a miss against plain → the plain fit's held-out RMS there, N·m, when it may not
     #: take the effects at that joint that diagnose does not apply there (:func:`withheld`)
     plain_without: dict[str, float] = field(default_factory=dict)
+    #: joint suffix of a miss against plain → the plain fit's held-out RMS there, N·m, with its q̇
+    #: low-passed at the cut-off diagnose chose for that joint instead of its own
+    plain_at_cutoff: dict[str, float] = field(default_factory=dict)
     #: (7,) Hz, diagnose's q̇ low-pass per joint (its ``q_ddot_cutoff_hz``)
     diagnose_cutoff_hz: tuple[float, ...] = ()
     #: the plain fit's per-joint selections "name@joint" → their fitted values (:meth:`PlainResult.joint_values`)
@@ -134,19 +137,24 @@ def compare_dataset(folder: Path, *, arm: str | None = None, procs: int = 2, pla
         raise ValueError(f"{folder}: a rotation needs at least 3 recordings (2 to train, 1 to test), found {len(files)}")
     # The plain fit's statistics first: a recording it cannot read, or a cut-off it cannot apply,
     # stops the comparison before any diagnose runs.
-    stats: list[RecordingStats] = []
-    sides: set[str] = set()
-    urdf_arms: dict[str, UrdfArm] = {}
-    with threadpool_limits(1):
-        for f in files:
-            rec = read_side(f, arm)  # as diagnose reads it; errors name the file
-            sides.add(rec.side)
-            if rec.side not in urdf_arms:
-                urdf_arms[rec.side] = UrdfArm.from_urdf(rec.side)
-            stats.append(recording_stats(urdf_arms[rec.side], f.name, rec.q, rec.qd, rec.effort, rec.rate_hz, cutoff_hz=plain_cutoff_hz))
+    recs = [read_side(f, arm) for f in files]  # as diagnose reads them; errors name the file
+    sides = {rec.side for rec in recs}
     if len(sides) != 1:
         raise ValueError(f"{folder}: recordings of both arms ({', '.join(sorted(sides))}); a dataset's rotations need one arm")
     (side,) = sides
+    urdf_arm = UrdfArm.from_urdf(side)
+    by_cutoff: dict[float, list[RecordingStats]] = {}
+
+    def stats_at(cutoff_hz: float) -> list[RecordingStats]:
+        """Every recording's statistics with q̇ low-passed at cutoff_hz, computed once."""
+        if cutoff_hz not in by_cutoff:
+            with threadpool_limits(1):
+                by_cutoff[cutoff_hz] = [
+                    recording_stats(urdf_arm, f.name, rec.q, rec.qd, rec.effort, rec.rate_hz, cutoff_hz=cutoff_hz) for f, rec in zip(files, recs)
+                ]
+        return by_cutoff[cutoff_hz]
+
+    stats = stats_at(plain_cutoff_hz)
     with tempfile.TemporaryDirectory(prefix="versus_plain-") as scratch, ThreadPoolExecutor(procs) as pool:
         jobs: list[Future] = [
             pool.submit(run_diagnose, [f for f in files if f != test], test, Path(scratch) / str(k), side) for k, test in enumerate(files)
@@ -167,12 +175,17 @@ def compare_dataset(folder: Path, *, arm: str | None = None, procs: int = 2, pla
                 plain_physical=plain_diagnosis(train, [stats[k]], physical=True).test_rms,
                 test_outside=np.array(list(report["coverage"]["test_outside_share"].values()), dtype=float),
             )
-            without = {}
+            without, at_cutoff = {}, {}
             for _, _, joint, against in misses([rotation]):
-                barred = withheld(rotation, joint) if against == "plain" else frozenset()
+                if against != "plain":
+                    continue
+                j = JOINT_SUFFIXES.index(joint)
+                barred = withheld(rotation, joint)
                 if barred:
-                    without[joint] = float(plain_diagnosis(train, [stats[k]], exclude=barred).test_rms[JOINT_SUFFIXES.index(joint)])
-            out.append(replace(rotation, plain_without=without))
+                    without[joint] = float(plain_diagnosis(train, [stats[k]], exclude=barred).test_rms[j])
+                cut = stats_at(rotation.diagnose_cutoff_hz[j])
+                at_cutoff[joint] = float(plain_diagnosis([s for i, s in enumerate(cut) if i != k], [cut[k]]).test_rms[j])
+            out.append(replace(rotation, plain_without=without, plain_at_cutoff=at_cutoff))
         return out
 
 
@@ -300,14 +313,18 @@ def page(rotations: Sequence[Rotation], elapsed_s: float, command: str, plain_cu
                   "(Stribeck: Coulomb friction F_c, then the bump F_s − F_c at rest; an offset: the one applied to the test recording; "
                   "\"not physical\" where an armature, a viscous or Coulomb coefficient or the friction at rest F_s is negative, which "
                   "`diagnose`'s bounds refuse), and why `diagnose` does not "
-                  "apply it there (its report's `not_at`); and the plain fit's held-out RMS at the joint when it is run again "
-                  "without those it applied there and `diagnose` does not (— where there are none).", "",
-                  "| dataset | test | joint | against | measured | the plain fit's effects at the joint in `diagnose` | plain without them [N·m] |",
-                  "|---|---|---|---|---|---|---:|"]
+                  "apply it there (its report's `not_at`); the plain fit's held-out RMS at the joint when it is run again "
+                  "without those it applied there and `diagnose` does not (— where there are none); and when it is run again with "
+                  "its q̇ low-passed at the cut-off `diagnose` chose for that joint (the tables' row above) instead of "
+                  f"{plain_cutoff_hz:g} Hz: how much of the difference is the filter's.", "",
+                  "| dataset | test | joint | against | measured | the plain fit's effects at the joint in `diagnose` | plain without them [N·m] "
+                  "| plain at diagnose's cut-off [N·m] |",
+                  "|---|---|---|---|---|---|---:|---:|"]
         for (d, t, j, c), m in found.items():
-            without = by_test[d, t].plain_without.get(j) if c == "plain" else None
-            lines.append(f"| {d} | `{t}` | {j} | {c} | {m[len('measured: '):]} | {diagnose_says(by_test[d, t], j)} | "
-                         f"{'—' if without is None else f'{without:.3f}'} |")
+            r = by_test[d, t]
+            without, at_cutoff = (r.plain_without.get(j), r.plain_at_cutoff.get(j)) if c == "plain" else (None, None)
+            lines.append(f"| {d} | `{t}` | {j} | {c} | {m[len('measured: '):]} | {diagnose_says(r, j)} | "
+                         f"{'—' if without is None else f'{without:.3f}'} | {'—' if at_cutoff is None else f'{at_cutoff:.3f}'} |")
     else:
         lines.append("None.")
     return "\n".join(lines) + "\n"

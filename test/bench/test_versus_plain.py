@@ -30,6 +30,7 @@ from bench.versus_plain import (
     datasets,
     diagnose_says,
     main,
+    page,
     read_side,
     recordings,
     withheld,
@@ -121,6 +122,11 @@ def test_the_misses_table_says_what_diagnose_did_with_the_plain_fits_effects() -
     # what the plain fit is run again without, for its figure at s1 without them: all but the applied one
     assert withheld(rotation, "s1") == {"armature@s1", "delay@s1"}
     assert withheld(rotation, "e1") == frozenset()
+    # on the page: a miss at s1 against plain, with the plain fit's figures without those and at diagnose's cut-off
+    missed = replace(rotation, diagnose=np.array([1, 2, 1, 1, 1, 1, 1.0]), rigid=np.full(7, 9.0), plain_without={"s1": 1.5}, plain_at_cutoff={"s1": 1.25},
+                     diagnose_cutoff_hz=(6.0,) * 7)  # fmt: skip
+    rows = [line for line in page([missed], 1.0, "cmd").splitlines() if line.startswith("| d | `t.csv` |")]
+    assert rows == ["| d | `t.csv` | s1 | plain | diagnose 2.000 vs plain 1.000 N·m | " + diagnose_says(rotation, "s1") + " | 1.500 | 1.250 |"]
 
 
 @pytest.mark.parametrize(
