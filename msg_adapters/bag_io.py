@@ -27,7 +27,9 @@ from rosbags.highlevel import AnyReader
 
 from baxter_dynamics_ros.core.joints import ARM_SIDES, arm_joint_names
 from baxter_dynamics_ros.core.plausibility import plausible_recording
-from baxter_dynamics_ros.core.recording import OtherArm, ProcessedRecording, Recording, detect_arm, require_activity, summed_range_rad
+from baxter_dynamics_ros.core.recording import (
+    OtherArm, ProcessedRecording, Recording, detect_arm, require_activity, summed_range_rad, velocity_from_positions,
+)  # fmt: skip
 from baxter_dynamics_ros.core.samples import SkipReason
 from baxter_dynamics_ros.errors import RecordingFileError
 
@@ -189,12 +191,17 @@ def joint_state_recording(
 ) -> Recording:
     """The recording of one arm from the decoded joint states of one topic (``read_bag_recording``).
 
-    where: where the messages were, for the user ("on /robot/joint_states").
+    Where no message gives velocities (a driver that leaves the array empty), q̇ is the central
+    difference of q over the stamps (:func:`~baxter_dynamics_ros.core.recording.velocity_from_positions`),
+    said through ``note``. where: where the messages were, for the user ("on /robot/joint_states").
     """
     complete = [b for b in data.blocks if b.position is not None and b.velocity is not None and b.effort is not None]
+    derived = not complete  # q̇ from q
+    if derived:
+        complete = [b for b in data.blocks if b.position is not None and b.effort is not None]
     if not complete:
         raise RecordingFileError(
-            f"{path}: no message {where} has position, velocity and effort, one entry per name"
+            f"{path}: no message {where} has position, velocity and effort (or, where none gives velocities, position and effort), one entry per name"
             f" ({sum(len(b.index) for b in data.blocks)} messages; joint names found: {_names_found(data.blocks)})"
         )
     if arm is None:
@@ -204,7 +211,7 @@ def joint_state_recording(
     chosen = [b for b in complete if set(joints) <= set(b.names)]
     if not chosen:
         raise RecordingFileError(
-            f"{path}: no message {where} has position, velocity and effort of all 7 {arm} arm joints "
+            f"{path}: no message {where} has position, {'' if derived else 'velocity and '}effort of all 7 {arm} arm joints "
             f"({', '.join(joints)}); joint names found: {_names_found(data.blocks)}"
         )
     index = np.concatenate([b.index for b in chosen])
@@ -212,11 +219,14 @@ def joint_state_recording(
     stamps_ns = np.concatenate([b.stamps_ns for b in chosen])[order]
     if not stamps_ns.any():
         stamps_ns = data.log_times_ns[index[order]]
-    q, qd, effort = (
-        np.concatenate([_columns(getattr(b, f), b.names, joints) for b in chosen])[order]
-        for f in ("position", "velocity", "effort")
-    )
-    malformed = _malformed(data.blocks, joints, where)
+    q, effort = (np.concatenate([_columns(getattr(b, f), b.names, joints) for b in chosen])[order] for f in ("position", "effort"))
+    if derived:
+        qd = velocity_from_positions(stamps_ns, q)
+        if note is not None:
+            note(f"{path}: no message {where} gives velocities; q̇ is the central difference of q over the stamps")
+    else:
+        qd = np.concatenate([_columns(b.velocity, b.names, joints) for b in chosen])[order]
+    malformed = _malformed(data.blocks, joints, where, velocity=not derived)
     if malformed is not None and note is not None:
         note(f"WARNING: {path}: {malformed}")
     recording = plausible_recording(str(path), arm, stamps_ns, q, qd, effort, note)
@@ -230,17 +240,19 @@ def _names_found(blocks: list[JointStateBlock]) -> str:
     return ", ".join(sorted({name for b in blocks for name in b.names})) or "none"
 
 
-def _malformed(blocks: list[JointStateBlock], joints: Sequence[str], where: str) -> str | None:
+def _malformed(blocks: list[JointStateBlock], joints: Sequence[str], where: str, *, velocity: bool = True) -> str | None:
     """What the messages that are no sample of the arm (``joints``) were, in words; None if none.
 
     The causes are the node's (:class:`~baxter_dynamics_ros.core.samples.SkipReason`): one of the
-    arm's joints missing from the names (or named twice), a position, velocity or effort array not
-    of one entry per name (an empty velocity or effort included: the offline methods need all three)."""
+    arm's joints missing from the names (or named twice), a position, velocity (where ``velocity``:
+    the messages give them) or effort array not of one entry per name (an empty one included: the
+    offline methods need all three)."""
     total = sum(len(b.index) for b in blocks)
     missing = sum(len(b.index) for b in blocks if not set(joints) <= set(b.names) or len(set(b.names)) != len(b.names))
     length = sum(
         len(b.index) for b in blocks
-        if set(joints) <= set(b.names) and len(set(b.names)) == len(b.names) and (b.position is None or b.velocity is None or b.effort is None)
+        if set(joints) <= set(b.names) and len(set(b.names)) == len(b.names)
+        and (b.position is None or (velocity and b.velocity is None) or b.effort is None)
     )
     if not missing + length:
         return None

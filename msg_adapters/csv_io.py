@@ -61,8 +61,8 @@ import numpy as np
 from baxter_dynamics_ros.core.joints import ARM_SIDES, JOINT_SUFFIXES
 from baxter_dynamics_ros.core.plausibility import package_bounds, plausible_recording, screen_samples
 from baxter_dynamics_ros.core.recording import (
-    JUMP_GAP_PERIODS, OtherArm, ProcessedRecording, Recording, detect_arm, estimate_rate_hz, even_runs, jumps, require_activity,
-    summed_range_rad,
+    JUMP_GAP_PERIODS, OtherArm, ProcessedRecording, Recording, detect_arm, estimate_rate_hz, jumps, require_activity, summed_range_rad,
+    velocity_from_positions,
 )  # fmt: skip
 from baxter_dynamics_ros.errors import RecordingFileError
 
@@ -463,8 +463,7 @@ def _positions_velocity(
     time column (one whose unit is named: with no velocities, none can be inferred) or, without
     one, samples 1 / ``rate_hz`` apart (needed: no rate can be estimated either); q̇ the central
     difference of q (N, 7) over them, one-sided at the ends of each run of evenly spaced samples
-    (:attr:`~baxter_dynamics_ros.core.recording.Recording.segments`), NaN in a run of one sample.
-    Said through ``note``."""
+    (:func:`~baxter_dynamics_ros.core.recording.velocity_from_positions`). Said through ``note``."""
     times = time_columns(columns)
     if times:
         if times[0].scale_s is None and columns[times[0].name].dtype.kind != "M":
@@ -480,12 +479,7 @@ def _positions_velocity(
         )
     else:
         stamps_ns = np.round(np.arange(len(q)) * (1e9 / rate_hz)).astype(np.int64)
-    t = (stamps_ns - stamps_ns[0]) * 1e-9
-    qd = np.full_like(q, np.nan)
-    with np.errstate(divide="ignore", invalid="ignore"):  # stamps that repeat: refused with the recording
-        for start, stop in even_runs(stamps_ns):
-            if stop - start >= 2:
-                qd[start:stop] = np.gradient(q[start:stop], t[start:stop], axis=0)
+    qd = velocity_from_positions(stamps_ns, q)
     if note is not None:
         note(f"{path}: no velocity columns; q̇ is the central difference of q over the {'time column' if times else 'rate given'}")
     return stamps_ns, qd

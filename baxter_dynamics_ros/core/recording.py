@@ -37,6 +37,7 @@ __all__ = [
     "require_length",
     "require_total_span",
     "summed_range_rad",
+    "velocity_from_positions",
 ]
 
 #: An arm moves in a recording when one of its joint angles spans at least this much, rad (0.57°:
@@ -78,6 +79,20 @@ def even_runs(stamps_ns: np.ndarray) -> tuple[tuple[int, int], ...]:
     limit = median + max((GAP_PERIODS - 1.0) * median, GAP_JITTER_SDS * jitter)
     cuts = (np.flatnonzero(steps > limit) + 1).tolist()
     return tuple(zip([0, *cuts], [*cuts, len(stamps_ns)]))
+
+
+def velocity_from_positions(stamps_ns: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """(N, m) rad/s, q̇ of positions q (N, m) rad at stamps (N,) ns that give no velocities: the
+    central difference of q over the stamps, one-sided at the ends of each run of evenly spaced
+    samples (:func:`even_runs`), NaN in a run of one sample (and inf where a stamp repeats: refused
+    with the recording)."""
+    t = (np.asarray(stamps_ns, dtype=np.int64) - stamps_ns[0]) * 1e-9
+    qd = np.full_like(q, np.nan, dtype=np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for start, stop in even_runs(stamps_ns):
+            if stop - start >= 2:
+                qd[start:stop] = np.gradient(q[start:stop], t[start:stop], axis=0)
+    return qd
 
 
 def summed_range_rad(q: np.ndarray) -> float:

@@ -107,6 +107,30 @@ def test_messages_of_other_layouts_and_without_the_arm_are_handled_by_name(
     assert_recording_is(read_bag_recording(path), states, "right")
 
 
+@pytest.mark.parametrize("kind", ["ros1", "mcap"])
+def test_messages_without_velocities_give_them_as_the_positions_difference(tmp_path: Path, kind: str) -> None:
+    """A driver that leaves every message's velocity empty: q̇ is the central difference of q over
+    the stamps, within the difference's truncation error of the true velocities (≤ A ω³ h² / 6 inside,
+    A ω² h / 2 at the ends), and a note says so; q, effort, stamps exact."""
+    states = joint_states(N)
+    msgs = [
+        (int(t), message(kind, t, BAXTER_JOINTS, states["position"][k], [], states["effort"][k]))
+        for k, t in enumerate(states["stamps_ns"])
+    ]
+    path = write_bag(bag_path(tmp_path, kind), kind, {"/robot/joint_states": msgs})
+    notes: list[str] = []
+    rec = read_bag_recording(path, note=notes.append)
+    q, qd, effort = columns(states, arm_joint_names("right"))
+    assert rec.side == "right"
+    np.testing.assert_array_equal(rec.stamps_ns, states["stamps_ns"])
+    np.testing.assert_array_equal(rec.q, q)
+    np.testing.assert_array_equal(rec.effort, effort)
+    h, omega_max, amp = 0.01, 2 * np.pi * 0.8, 0.6
+    np.testing.assert_allclose(rec.qd[1:-1], qd[1:-1], rtol=0, atol=amp * omega_max**3 * h**2 / 6)
+    np.testing.assert_allclose(rec.qd[[0, -1]], qd[[0, -1]], rtol=0, atol=amp * omega_max**2 * h / 2)
+    assert notes == [f"{path}: no message on /robot/joint_states gives velocities; q̇ is the central difference of q over the stamps"]
+
+
 def test_bag_without_header_stamps_uses_receive_times(tmp_path: Path) -> None:
     states = joint_states(30)
     receive_ns = states["stamps_ns"] + 1234

@@ -265,7 +265,7 @@ def test_when_no_row_is_a_whole_sample_the_error_says_so(tmp_path: Path) -> None
         lines.append(rostopic_plot_row(int(t), int(t), BAXTER_JOINTS, states["position"][k], states["velocity"][k]))
     path = tmp_path / "no_effort.csv"
     path.write_text("\n".join(lines) + "\n")
-    with pytest.raises(RecordingFileError, match=r"no message in this file has position, velocity and effort, one entry per name \(20 messages; joint names found: head_nod"):
+    with pytest.raises(RecordingFileError, match=r"no message in this file has position, velocity and effort \(or, where none gives velocities, position and effort\), one entry per name \(20 messages; joint names found: head_nod"):
         read_recording(path, note=None)
 
 
