@@ -15,12 +15,13 @@ begins with a topic's path, as PlotJuggler's CSV export writes them
 - quantity words: position ``position pos ang angle q qpos theta``; velocity ``velocity vel qd dq
   qdot qvel speed dtheta thetadot``; effort ``effort eff torque torq tau trq`` (plurals too);
 - units: SI (``rad``, ``rad/s``, ``N·m``/``Nm``) as the package uses them, or degrees (``deg``,
-  ``deg/s``) for positions and velocities, converted; any other unit word makes the name unknown;
+  ``deg/s``, ``°``, ``°/s``) for positions and velocities, converted; any other unit word makes the
+  name unknown;
 - indexed joints (``q1 … q7``, ``dq_0 … dq_6``, ``tau[1]``): Baxter's order s0, s1, e0, e1, w0,
   w1, w2, and only where a quantity's indices are exactly 1–7 or 0–6 (a table of 17 joints, as
   /robot/joint_states holds, does not say which seven are an arm's);
 - time: ``time``, ``t``, ``stamp``, ``timestamp``, ``%time``, with a unit word (``s``, ``ms``,
-  ``us``, ``ns`` and their spellings) or none (:attr:`TimeColumn.scale_s` None: the reader
+  ``us``/``µs``, ``ns`` and their spellings) or none (:attr:`TimeColumn.scale_s` None: the reader
   infers it).
 
 Two columns that say the same thing (``ang_left_s0`` beside ``position_left_s0``) are refused:
@@ -51,17 +52,18 @@ _SIDE_OF = {"left": "left", "l": "left", "right": "right", "r": "right"}
 _NEUTRAL = frozenset({"joint", "joints", "state", "states", "measured", "meas", "actual"})
 #: Unit words that leave SI values as they are (rad, rad/s, N·m), and the degree's.
 _SI_UNITS = frozenset({"rad", "rads", "s", "sec", "nm", "n", "m"})
-_DEGREE_UNITS = frozenset({"deg", "degs", "degree", "degrees"})
+_DEGREE_UNITS = frozenset({"deg", "degs", "degree", "degrees", "°"})
 _TIME_WORDS = frozenset({"time", "t", "stamp", "timestamp", "timestamps", "%time"})
 _TIME_NEUTRAL = frozenset({"header"})  # header.stamp
 #: A time column's unit word -> seconds per unit.
 _TIME_UNITS = {
     "s": 1.0, "sec": 1.0, "secs": 1.0, "second": 1.0, "seconds": 1.0,
     "ms": 1e-3, "msec": 1e-3, "msecs": 1e-3,
-    "us": 1e-6, "usec": 1e-6, "usecs": 1e-6,
+    "us": 1e-6, "usec": 1e-6, "usecs": 1e-6, "µs": 1e-6, "μs": 1e-6,
     "ns": 1e-9, "nsec": 1e-9, "nsecs": 1e-9,
 }  # fmt: skip
-_WORD = re.compile(r"[A-Za-z0-9%]+")
+#: A word: letters and digits (µ and μ too: ``µs``), or the degree sign on its own (``[°]``, ``°/s``).
+_WORD = re.compile(r"[A-Za-z0-9%µμ]+|°")
 _INDEXED = re.compile(r"^([a-z]+)(\d+)$")
 
 

@@ -41,7 +41,7 @@ def test_names_say_quantity_side_and_joint() -> None:
         ["ang_left_s0", "Left_S1.Effort", "r_e0_vel", "q3", "tau[7]", "dq_0", "position_w2 [deg]", "effort_w1 [Nm]",
          "desired_position_s0", "acceleration_left_s0", "gravity_s1", "head_pan", "field.position0", "effort_w0_deg",
          "/robot/limb/left/commanded_position/left_e1", "/robot/joint_states/head_pan/position", "joint_states.velocity.left_w0",
-         "S1_speed", "dtheta_e1", "desired_state_position_w1"]
+         "S1_speed", "dtheta_e1", "desired_state_position_w1", "position_e0 [°]", "velocity_e0 (°/s)", "effort_e0 [°]"]
     )  # fmt: skip
     said = {key: (c.name, c.scale) for key, c in found.items()}
     assert said == {
@@ -53,7 +53,9 @@ def test_names_say_quantity_side_and_joint() -> None:
         ("velocity", "left", "w0"): ("joint_states.velocity.left_w0", 1.0),
         ("velocity", None, "s1"): ("S1_speed", 1.0),
         ("velocity", None, "e1"): ("dtheta_e1", 1.0),
-    }  # q3, tau[7], dq_0: one index of seven is no arm's; the rest name something else
+        ("position", None, "e0"): ("position_e0 [°]", math.pi / 180.0),
+        ("velocity", None, "e0"): ("velocity_e0 (°/s)", math.pi / 180.0),
+    }  # an effort in degrees is no effort  # q3, tau[7], dq_0: one index of seven is no arm's; the rest name something else
 
 
 def test_indexed_columns_are_baxters_order_only_when_seven() -> None:
@@ -70,8 +72,8 @@ def test_two_columns_saying_the_same_are_refused() -> None:
 
 
 def test_time_columns_nanoseconds_first_then_with_a_unit() -> None:
-    got = [(c.name, c.scale_s) for c in time_columns(["time", "t [ms]", "value", "stamp_ns", "time_s_ns", "header.stamp.secs", "__time"])]
-    assert got == [("stamp_ns", 1e-9), ("t [ms]", 1e-3), ("header.stamp.secs", 1.0), ("time", None), ("__time", None)]
+    got = [(c.name, c.scale_s) for c in time_columns(["time", "t [ms]", "value", "stamp_ns", "time_s_ns", "header.stamp.secs", "__time", "t [µs]", "time (μs)"])]
+    assert got == [("stamp_ns", 1e-9), ("t [ms]", 1e-3), ("header.stamp.secs", 1.0), ("t [µs]", 1e-6), ("time (μs)", 1e-6), ("time", None), ("__time", None)]
 
 
 @pytest.mark.parametrize(
