@@ -5,7 +5,9 @@ them too (a date, a label). A text table's fields are separated by commas, semic
 (tabs too), as its header line's are, and may stand in double quotes; numbers in a table of
 semicolons may have a decimal comma (``-0,90``, a spreadsheet's export where the comma is one). It
 may be compressed whole (:mod:`msg_adapters.text_files`), and begin with comment lines (``#``), the
-last of them the header where data rows follow it (``numpy.savetxt``'s ``# ang_s0 …``).
+last of them the header where data rows follow it (``numpy.savetxt``'s ``# ang_s0 …``). A row of
+units under the header (``s,rad,rad/s,N·m``, ``[°]``: :func:`_units_row`) is read as each column's
+unit, as if its name ended with it.
 
 Which column holds which joint's position, velocity or effort, and which the time, its name says
 (:mod:`msg_adapters.table_columns`: ``ang_left_s0``, ``position_s0``, ``left_s0_pos``, ``q1 … q7``,
@@ -80,6 +82,9 @@ MAX_TIME_S = 9.2e9
 _WITHOUT_VELOCITY = ("position", "effort")
 #: The quote a text table's fields may stand in (``"ang_left_s0"``, ``"0.5"``), as CSV writers put it.
 _QUOTE = '"'
+#: A unit as a row of units writes it: letters, µ, °, %, the operators of a unit (``N·m``,
+#: ``rad/s^2``, ``m*s-1``, ``s²``), in brackets or not; or nothing.
+_UNIT = re.compile(r"[\[(]?[A-Za-zµμ°%/·⋅*. ^\-12²]*[\])]?")
 Note = Callable[[str], None]  # takes a one-line message for the user
 
 
@@ -185,6 +190,10 @@ def _read_columns(path: Path) -> dict[str, np.ndarray]:
         names = [n.strip() for n in (next(csv.reader([header], delimiter=delimiter)) if delimiter else header.split())]
     except csv.Error as err:  # a name beyond csv's field size limit
         raise RecordingFileError(f"{path}: the header line is no row of column names ({err})") from err
+    if (units := _units_row(rows[0], delimiter, len(names))) is not None:  # a row of units under the names
+        names, rows = [f"{name} [{unit}]" if unit else name for name, unit in zip(names, units)], rows[1:]
+        if not rows:
+            raise RecordingFileError(f"{path}: no data rows under the header line and its units")
     _refuse_duplicates(path, names)
     kept, times = names, {}
     try:
@@ -210,6 +219,19 @@ def _read_columns(path: Path) -> dict[str, np.ndarray]:
     columns.update(stamps)
     columns.update({name: dates for name, dates in times.items() if dates is not None})
     return columns
+
+
+def _units_row(row: str, delimiter: str | None, width: int) -> list[str] | None:
+    """The units of a table's first data row when it is a row of units, as some exports write under
+    the column names (``s,rad,rad/s,N·m`` or ``[deg]``, some left empty): a field per column, none
+    a number or holding a digit but an exponent's, some not empty; None for any other row."""
+    try:
+        fields = [f.strip() for f in (next(csv.reader([row], delimiter=delimiter)) if delimiter else row.split())]
+    except csv.Error:
+        return None
+    if len(fields) != width or not any(fields) or not all(_UNIT.fullmatch(f) and not _is_numbers(f) for f in fields if f):
+        return None
+    return [f.strip("[]()") for f in fields]
 
 
 def _time_texts(path: Path, name: str, rows: Sequence[str], delimiter: str | None, column: int) -> np.ndarray | None:

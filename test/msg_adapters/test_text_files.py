@@ -152,6 +152,33 @@ def test_a_time_column_of_dates_and_times_gives_the_stamps(tmp_path: Path) -> No
         read_recording(tmp_path / "word.csv", note=None)
 
 
+def test_a_row_of_units_under_the_names_is_read_as_their_units(tmp_path: Path) -> None:
+    """A row of units under the header, as some exports write (``rad rad/s N·m``, ``[°] [°/s]
+    [Nm]``, one left empty): each read as a unit in the column's name, degrees converted; a unit no
+    column may have (mrad) leaves the column unknown, and the table is refused naming it."""
+    states = joint_states(N, rate_hz=50.0)
+    text = write_baxter_export(tmp_path / "plain.csv", states).read_text().splitlines()
+    units = ["rad"] * 7 + ["rad/s"] * 7 + ["N·m"] * 6 + [""]
+    (tmp_path / "si.csv").write_text("\n".join([text[0].replace(" ", ","), ",".join(units), *(r.replace(" ", ",") for r in text[1:])]) + "\n")
+    assert_left_arm(read_recording(tmp_path / "si.csv", rate_hz=50.0, note=None), states)
+    q, qd, tau = columns(states, arm_joint_names("left"))
+    degrees = np.hstack([np.degrees(q), np.degrees(qd), tau])
+    rows = [text[0], " ".join(["[°]"] * 7 + ["[°/s]"] * 7 + ["[Nm]"] * 7), *(" ".join(repr(float(v)) for v in row) for row in degrees)]
+    (tmp_path / "deg.txt").write_text("\n".join(rows) + "\n")
+    rec = read_recording(tmp_path / "deg.txt", rate_hz=50.0, note=None)
+    np.testing.assert_allclose(rec.q, q, rtol=1e-14, atol=1e-14)
+    np.testing.assert_allclose(rec.qd, qd, rtol=1e-14, atol=1e-14)
+    np.testing.assert_array_equal(rec.effort, tau)
+    ones = [text[0], " ".join(["1"] * 7 + ["2"] * 7 + ["-1"] * 7), *text[2:]]  # a first row of numbers without a digit but 1, 2
+    (tmp_path / "ones.txt").write_text("\n".join(ones) + "\n")
+    rec = read_recording(tmp_path / "ones.txt", rate_hz=50.0, note=None)
+    assert len(rec) == N and rec.q[0].tolist() == [1.0] * 7 and rec.effort[0].tolist() == [-1.0] * 7
+    rows[1] = rows[1].replace("[°]", "mrad", 1)
+    (tmp_path / "mrad.txt").write_text("\n".join(rows) + "\n")
+    with pytest.raises(RecordingFileError, match=r"the left arm needs columns missing here: ang_left_s0"):
+        read_recording(tmp_path / "mrad.txt", rate_hz=50.0, arm="left", note=None)
+
+
 def test_comment_lines_are_passed_over_and_numpy_savetxt_s_header_is_read(tmp_path: Path) -> None:
     states = joint_states(N, rate_hz=50.0)
     q, qd, tau = columns(states, arm_joint_names("left"))
