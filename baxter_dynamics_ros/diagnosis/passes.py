@@ -21,6 +21,7 @@ import numpy as np
 
 from ..core.acceleration import zero_phase_acceleration
 from ..core.arm_model import ArmModel
+from ..core.joints import S1
 from ..core.recording import Recording, require_length
 from ..errors import DiagnosisError, RecordingError
 from .gap_analysis import GapSums, angle_histogram, gap_sums, values_in_bins
@@ -31,6 +32,8 @@ __all__ = ["Reduction", "Screening", "TestFigures", "check_recording", "reduce",
 
 #: The effort must follow the rigid-body torque at one joint at least this well (correlation):
 #: on the real recordings the best joint reaches 0.99 in every file, pure noise stays below 0.1.
+#: A correlation as strong the other way (but at s1, where the spring's torque is of gravity's size:
+#: down to −0.60 on the real recordings) says the effort's sign is not the model's.
 MIN_MODEL_CORRELATION = 0.5
 
 
@@ -39,7 +42,7 @@ def check_recording(arm: ArmModel, label: str, rec: Recording, what: str) -> Non
     than it needs (:func:`require_length`; ``what``: "training" or "test"), sampled too slowly for
     the q̈ filter's lowest cut-off (:func:`~.statistics.cutoff_grid`), with a joint whose effort
     never changes, or whose effort follows the rigid-body torque at no joint (not this arm's torque,
-    not in N·m, or noise)."""
+    not in N·m, or noise) or runs against it at one (of the opposite sign)."""
     if rec.side != arm.side:
         raise DiagnosisError(f"{label}: a {rec.side}-arm recording, but the model is of the {arm.side} arm")
     try:
@@ -58,12 +61,18 @@ def check_recording(arm: ArmModel, label: str, rec: Recording, what: str) -> Non
             "a torque sensor that does not respond; the diagnosis needs every joint's effort"
         )
     tau = arm.inverse_dynamics(rec.q, rec.qd, zero_phase_acceleration(rec.qd, rec.rate_hz, min(4.0, 0.4 * rec.rate_hz), segments=rec.segments))
-    moving = np.ptp(tau, axis=0) > 0.0
-    corr = [abs(float(np.corrcoef(rec.effort[:, j], tau[:, j])[0, 1])) for j in np.flatnonzero(moving)]
-    if not corr or max(corr) < MIN_MODEL_CORRELATION:
+    corr = {j: float(np.corrcoef(rec.effort[:, j], tau[:, j])[0, 1]) for j in np.flatnonzero(np.ptp(tau, axis=0) > 0.0)}
+    if not corr or max(map(abs, corr.values())) < MIN_MODEL_CORRELATION:
         raise DiagnosisError(
             f"{label}: the effort follows the rigid-body torque at no joint (largest correlation "
-            f"{max(corr, default=0.0):.2f}, at least {MIN_MODEL_CORRELATION:g} expected): is it this arm's joint torque, in N·m?"
+            f"{max(map(abs, corr.values()), default=0.0):.2f}, at least {MIN_MODEL_CORRELATION:g} expected): is it this arm's joint torque, in N·m?"
+        )
+    against = {arm.joint_names[j]: c for j, c in corr.items() if c <= -MIN_MODEL_CORRELATION and j != S1}
+    if against:
+        raise DiagnosisError(
+            f"{label}: the effort of {', '.join(against)} runs against the rigid-body torque (correlation "
+            f"{', '.join(f'{c:.2f}' for c in against.values())}): its sign is the opposite of the model's, which is positive about "
+            "each joint's axis, as Baxter publishes it on /robot/joint_states; negate it (or check the joints' order)"
         )
 
 

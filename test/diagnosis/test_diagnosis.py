@@ -271,8 +271,9 @@ def test_offsets_farther_apart_than_a_sensor_drifts_are_reported_as_a_hidden_tor
 
 
 def test_effort_that_is_not_this_arms_torque_is_refused() -> None:
-    """A recording whose effort is noise, or with a joint whose effort never changes, cannot be
-    diagnosed: refused, naming the recording (and the joint)."""
+    """A recording whose effort is noise, with a joint whose effort never changes, or whose sign is
+    the opposite of the model's at a joint, cannot be diagnosed: refused, naming the recording (and
+    the joint)."""
 
     train = simulated_recordings(Scenario("rigid", {}), TRAIN_RUNS, ())
     test = simulated_recordings(Scenario("rigid", {}), TEST_RUNS, ())
@@ -285,6 +286,10 @@ def test_effort_that_is_not_this_arms_torque_is_refused() -> None:
     stuck = Recording(rec.side, rec.joint_names, rec.stamps_ns, rec.q, rec.qd, flat)
     with pytest.raises(DiagnosisError, match=r"stuck: the effort of right_w1 is the same in every sample"):
         diagnose(validation_arm(), train, [("stuck", stuck)])
+    negated = rec.effort * np.where(np.arange(7) == 3, -1.0, 1.0)  # e1's sign the opposite of the model's
+    flipped = Recording(rec.side, rec.joint_names, rec.stamps_ns, rec.q, rec.qd, negated)
+    with pytest.raises(DiagnosisError, match=r"flipped: the effort of right_e1 runs against the rigid-body torque \(correlation -0\.9\d\): its sign"):
+        diagnose(validation_arm(), train, [("flipped", flipped)])
 
 
 def test_per_joint_effects_act_only_where_they_pay() -> None:
