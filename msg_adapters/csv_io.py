@@ -24,7 +24,9 @@ Which column holds which joint's position, velocity or effort, and which the tim
 columns (the one that moves more if both do), unless given. Tables of other datasets often name no
 arm (``ang_s0``, ``q1``): they are read for the arm given (``--arm``), and refused without. A time
 column whose name gives no unit is read in the one of s, ms, µs, ns in which its steps match the
-velocities, and the note says which. A time column may also hold dates and times as text
+velocities, and the note says which. Where it goes back (trials laid end to end, each timed from
+its own start), each trial is moved to begin a gap after the one before, which cuts the recording
+there, and a note says so (:func:`_laid_end_to_end`). A time column may also hold dates and times as text
 (``2019-05-12 10:23:45.123456`` as pandas writes a time index, ISO 8601 with a zone,
 ``2019/05/12/10:23:45.123456`` as the ``rosbag_to_csv`` tool writes, or times of day alone:
 :func:`~msg_adapters.datetimes.datetimes`), or in Parquet be a timestamp.
@@ -323,19 +325,45 @@ def _other_arms(found: dict[tuple[str, str | None, str], JointColumn], columns: 
 def _time_column_ns(path: Path, columns: dict[str, np.ndarray], time: TimeColumn, q: np.ndarray, qd: np.ndarray | None, note: Note | None) -> np.ndarray:
     """(N,) stamps, int64 ns, from a time column: integers in ns as they are, any other scaled by
     its unit (:mod:`msg_adapters.table_columns`) or, where its name gives none, by the unit in which
-    its steps match the velocities qd (:func:`_time_unit_s`; a column of no unit needs them)."""
+    its steps match the velocities qd (:func:`_time_unit_s`; a column of no unit needs them); where
+    it goes back, trials laid end to end (:func:`_laid_end_to_end`)."""
     values = columns[time.name]
     if values.dtype.kind == "M":  # dates and times as text, or a Parquet timestamp
         if np.isnat(values).any():
             raise RecordingFileError(f"{path}: {time.name} must hold a time in every row")
-        return values.astype("datetime64[ns]").astype(np.int64)
-    if values.dtype.kind in "iu" and time.scale_s == 1e-9:
-        return values.astype(np.int64)
-    t = np.asarray(values, dtype=np.float64)
-    scale_s = time.scale_s if time.scale_s is not None else _time_unit_s(path, time.name, t, q, qd, note)
-    if not (np.isfinite(t).all() and np.abs(t).max() * scale_s < MAX_TIME_S):
-        raise RecordingFileError(f"{path}: {time.name} must hold finite times, below {MAX_TIME_S:.3g} s in size (int64 ns)")
-    return np.round(t * (scale_s * 1e9)).astype(np.int64)
+        stamps = values.astype("datetime64[ns]").astype(np.int64)
+    elif values.dtype.kind in "iu" and time.scale_s == 1e-9:
+        stamps = values.astype(np.int64)
+    else:
+        t = np.asarray(values, dtype=np.float64)
+        scale_s = time.scale_s if time.scale_s is not None else _time_unit_s(path, time.name, t, q, qd, note)
+        if not (np.isfinite(t).all() and np.abs(t).max() * scale_s < MAX_TIME_S):
+            raise RecordingFileError(f"{path}: {time.name} must hold finite times, below {MAX_TIME_S:.3g} s in size (int64 ns)")
+        stamps = np.round(t * (scale_s * 1e9)).astype(np.int64)
+    return _laid_end_to_end(path, time.name, stamps, note)
+
+
+def _laid_end_to_end(path: Path, name: str, stamps: np.ndarray, note: Note | None) -> np.ndarray:
+    """(N,) stamps ns of a time column that goes back (trials laid end to end, each timed from its
+    own start): each trial after the first moved to begin :data:`JUMP_GAP_PERIODS` median steps
+    after the one before it ends, a gap that cuts the recording there (as at a jump of the
+    positions), said through ``note``. Refused where the time goes back at more than half of the
+    steps (rows that are no time series)."""
+    steps = np.diff(stamps)
+    back = np.flatnonzero(steps < 0)
+    if not back.size:
+        return stamps
+    if back.size > 0.5 * steps.size or not (steps > 0).any():
+        raise RecordingFileError(f"{path}: the time column {name} goes back at {back.size} of {steps.size} steps: the rows are no time series")
+    gap = JUMP_GAP_PERIODS * int(np.median(steps[steps > 0]))
+    shift = np.zeros(len(stamps), dtype=np.int64)
+    shift[back + 1] = stamps[back] - stamps[back + 1] + gap
+    if note is not None:
+        note(
+            f"{path}: the time column {name} goes back at {back.size} row(s) (first after sample {back[0]}): trials laid end to end, "
+            f"taken apart there (gaps of unknown length, {JUMP_GAP_PERIODS} samples in the stamps)"
+        )
+    return stamps + np.cumsum(shift)
 
 
 def _time_unit_s(path: Path, name: str, t: np.ndarray, q: np.ndarray, qd: np.ndarray, note: Note | None) -> float:
@@ -345,7 +373,7 @@ def _time_unit_s(path: Path, name: str, t: np.ndarray, q: np.ndarray, qd: np.nda
     out); said through ``note``. Refused where none is."""
     dq, dt = np.diff(q, axis=0), np.diff(t)[:, None]
     x = 0.5 * (qd[1:] + qd[:-1]) * dt
-    use = np.isfinite(dq) & np.isfinite(x)
+    use = np.isfinite(dq) & np.isfinite(x) & (dt > 0)  # not where the time goes back (:func:`_laid_end_to_end`)
     xx = float(x[use] @ x[use])
     factor = float(dq[use] @ x[use]) / xx if xx > 0.0 else math.nan
     units = [(u, word) for u, word in ((1.0, "s"), (1e-3, "ms"), (1e-6, "µs"), (1e-9, "ns")) if abs(factor / u - 1.0) <= RATE_TOLERANCE]

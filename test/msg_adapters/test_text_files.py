@@ -179,6 +179,35 @@ def test_a_row_of_units_under_the_names_is_read_as_their_units(tmp_path: Path) -
         read_recording(tmp_path / "mrad.txt", rate_hz=50.0, arm="left", note=None)
 
 
+def test_trials_laid_end_to_end_each_timed_from_zero_are_taken_apart(tmp_path: Path) -> None:
+    """A time column that starts again from 0 at each trial: each trial read as it is, the next
+    moved to begin 10 periods after the one before ends (a gap: the recording cut there), a note
+    saying so; a time column that goes back at most rows refused."""
+    first, second = joint_states(N, rate_hz=50.0, seed=1), joint_states(N // 2, rate_hz=50.0, seed=2)
+    header = ",".join(["time_s", *(f"{p}_{j}" for p in ("ang", "vel", "torq") for j in arm_joint_names("left"))])
+    rows = [header]
+    for states in (first, second):
+        q, qd, tau = columns(states, arm_joint_names("left"))
+        t = (states["stamps_ns"] - states["stamps_ns"][0]) * 1e-9
+        rows += [",".join(repr(float(v)) for v in (t[k], *q[k], *qd[k], *tau[k])) for k in range(len(t))]
+    (tmp_path / "trials.csv").write_text("\n".join(rows) + "\n")
+    notes: list[str] = []
+    rec = read_recording(tmp_path / "trials.csv", note=notes.append)
+    want = np.concatenate([np.arange(N), N - 1 + 10 + np.arange(N // 2)]) * 20_000_000
+    np.testing.assert_array_equal(rec.stamps_ns, want)
+    for got, a, b in zip((rec.q, rec.qd, rec.effort), columns(first, arm_joint_names("left")), columns(second, arm_joint_names("left"))):
+        np.testing.assert_array_equal(got, np.vstack([a, b]))
+    assert [(stop - start) for start, stop in rec.segments] == [N, N // 2]
+    assert notes == [
+        f"{tmp_path / 'trials.csv'}: the time column time_s goes back at 1 row(s) (first after sample {N - 1}): trials laid end to end, "
+        "taken apart there (gaps of unknown length, 10 samples in the stamps)"
+    ]
+    shuffled = [rows[0], *np.random.default_rng(0).permutation(rows[1:])]
+    (tmp_path / "shuffled.csv").write_text("\n".join(shuffled) + "\n")
+    with pytest.raises(RecordingFileError, match=r"the time column time_s goes back at \d+ of 449 steps: the rows are no time series"):
+        read_recording(tmp_path / "shuffled.csv", note=None)
+
+
 def test_comment_lines_are_passed_over_and_numpy_savetxt_s_header_is_read(tmp_path: Path) -> None:
     states = joint_states(N, rate_hz=50.0)
     q, qd, tau = columns(states, arm_joint_names("left"))
