@@ -26,8 +26,8 @@ arm (``ang_s0``, ``q1``): they are read for the arm given (``--arm``), and refus
 column whose name gives no unit is read in the one of s, ms, µs, ns in which its steps match the
 velocities, and the note says which. Where it goes back (trials laid end to end, each timed from
 its own start), each trial is moved to begin a gap after the one before, which cuts the recording
-there, and a note says so (:func:`_laid_end_to_end`). A time column may also hold dates and times as text
-(``2019-05-12 10:23:45.123456`` as pandas writes a time index, ISO 8601 with a zone,
+there, and a note says so (:func:`_laid_end_to_end`). A time column may also hold dates and times
+as text (``2019-05-12 10:23:45.123456`` as pandas writes a time index, ISO 8601 with a zone,
 ``2019/05/12/10:23:45.123456`` as the ``rosbag_to_csv`` tool writes, or times of day alone:
 :func:`~msg_adapters.datetimes.datetimes`), or in Parquet be a timestamp.
 
@@ -238,8 +238,8 @@ def _units_row(row: str, delimiter: str | None, width: int) -> list[str] | None:
 
 def _time_texts(path: Path, name: str, rows: Sequence[str], delimiter: str | None, column: int) -> np.ndarray | None:
     """The times (N,) datetime64[ns] of a time column ``name`` that holds dates and times as text
-    (:func:`~msg_adapters.datetimes.datetimes`); None where it holds numbers (read with the other columns). Refuses a
-    column of text that is no date and time in some row."""
+    (:func:`~msg_adapters.datetimes.datetimes`); None where it holds numbers (read with the other
+    columns). Refuses a column of text that is no date and time in some row."""
     try:
         _numbers(rows, delimiter, usecols=[column])
         return None
