@@ -28,7 +28,8 @@ from rosbags.highlevel import AnyReader
 from baxter_dynamics_ros.core.joints import ARM_SIDES, arm_joint_names
 from baxter_dynamics_ros.core.plausibility import plausible_recording
 from baxter_dynamics_ros.core.recording import (
-    OtherArm, ProcessedRecording, Recording, detect_arm, require_activity, summed_range_rad, velocity_from_positions,
+    JUMP_GAP_PERIODS, OtherArm, ProcessedRecording, Recording, detect_arm, require_activity, summed_range_rad, taken_apart,
+    velocity_from_positions,
 )  # fmt: skip
 from baxter_dynamics_ros.core.samples import SkipReason
 from baxter_dynamics_ros.errors import RecordingFileError
@@ -192,8 +193,10 @@ def joint_state_recording(
     """The recording of one arm from the decoded joint states of one topic (``read_bag_recording``).
 
     Where no message gives velocities (a driver that leaves the array empty), q̇ is the central
-    difference of q over the stamps (:func:`~baxter_dynamics_ros.core.recording.velocity_from_positions`),
-    said through ``note``. where: where the messages were, for the user ("on /robot/joint_states").
+    difference of q over the stamps (:func:`~baxter_dynamics_ros.core.recording.velocity_from_positions`);
+    where the stamps go back (a clock set back, recordings laid end to end), the recording is taken
+    apart there (:func:`~baxter_dynamics_ros.core.recording.taken_apart`); each said through
+    ``note``. where: where the messages were, for the user ("on /robot/joint_states").
     """
     complete = [b for b in data.blocks if b.position is not None and b.velocity is not None and b.effort is not None]
     derived = not complete  # q̇ from q
@@ -219,6 +222,14 @@ def joint_state_recording(
     stamps_ns = np.concatenate([b.stamps_ns for b in chosen])[order]
     if not stamps_ns.any():
         stamps_ns = data.log_times_ns[index[order]]
+    stamps_ns, back = taken_apart(stamps_ns)
+    if back.size > 0.5 * (len(stamps_ns) - 1):
+        raise RecordingFileError(f"{path}: the stamps of the messages {where} go back at {back.size} of {len(stamps_ns) - 1} steps: no time series")
+    if back.size and note is not None:
+        note(
+            f"{path}: the stamps of the messages {where} go back at {back.size} message(s) (first after sample {back[0]}): a clock set back, "
+            f"or recordings laid end to end; taken apart there (gaps of unknown length, {JUMP_GAP_PERIODS} samples in the stamps)"
+        )
     q, effort = (np.concatenate([_columns(getattr(b, f), b.names, joints) for b in chosen])[order] for f in ("position", "effort"))
     if derived:
         qd = velocity_from_positions(stamps_ns, q)

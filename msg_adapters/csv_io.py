@@ -66,7 +66,7 @@ from baxter_dynamics_ros.core.joints import ARM_SIDES, JOINT_SUFFIXES
 from baxter_dynamics_ros.core.plausibility import package_bounds, plausible_recording, screen_samples
 from baxter_dynamics_ros.core.recording import (
     JUMP_GAP_PERIODS, OtherArm, ProcessedRecording, Recording, detect_arm, estimate_rate_hz, jumps, require_activity, summed_range_rad,
-    velocity_from_positions,
+    taken_apart, velocity_from_positions,
 )  # fmt: skip
 from baxter_dynamics_ros.errors import RecordingFileError
 
@@ -345,25 +345,20 @@ def _time_column_ns(path: Path, columns: dict[str, np.ndarray], time: TimeColumn
 
 def _laid_end_to_end(path: Path, name: str, stamps: np.ndarray, note: Note | None) -> np.ndarray:
     """(N,) stamps ns of a time column that goes back (trials laid end to end, each timed from its
-    own start): each trial after the first moved to begin :data:`JUMP_GAP_PERIODS` median steps
-    after the one before it ends, a gap that cuts the recording there (as at a jump of the
-    positions), said through ``note``. Refused where the time goes back at more than half of the
-    steps (rows that are no time series)."""
-    steps = np.diff(stamps)
-    back = np.flatnonzero(steps < 0)
+    own start): taken apart there by a gap (:func:`~baxter_dynamics_ros.core.recording.taken_apart`,
+    as at a jump of the positions), said through ``note``. Refused where the time goes back at more
+    than half of the steps (rows that are no time series)."""
+    moved, back = taken_apart(stamps)
     if not back.size:
-        return stamps
-    if back.size > 0.5 * steps.size or not (steps > 0).any():
-        raise RecordingFileError(f"{path}: the time column {name} goes back at {back.size} of {steps.size} steps: the rows are no time series")
-    gap = JUMP_GAP_PERIODS * int(np.median(steps[steps > 0]))
-    shift = np.zeros(len(stamps), dtype=np.int64)
-    shift[back + 1] = stamps[back] - stamps[back + 1] + gap
+        return moved
+    if back.size > 0.5 * (len(stamps) - 1):
+        raise RecordingFileError(f"{path}: the time column {name} goes back at {back.size} of {len(stamps) - 1} steps: the rows are no time series")
     if note is not None:
         note(
             f"{path}: the time column {name} goes back at {back.size} row(s) (first after sample {back[0]}): trials laid end to end, "
             f"taken apart there (gaps of unknown length, {JUMP_GAP_PERIODS} samples in the stamps)"
         )
-    return stamps + np.cumsum(shift)
+    return moved
 
 
 def _time_unit_s(path: Path, name: str, t: np.ndarray, q: np.ndarray, qd: np.ndarray, note: Note | None) -> float:

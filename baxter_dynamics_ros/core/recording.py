@@ -37,6 +37,7 @@ __all__ = [
     "require_length",
     "require_total_span",
     "summed_range_rad",
+    "taken_apart",
     "velocity_from_positions",
 ]
 
@@ -79,6 +80,24 @@ def even_runs(stamps_ns: np.ndarray) -> tuple[tuple[int, int], ...]:
     limit = median + max((GAP_PERIODS - 1.0) * median, GAP_JITTER_SDS * jitter)
     cuts = (np.flatnonzero(steps > limit) + 1).tolist()
     return tuple(zip([0, *cuts], [*cuts, len(stamps_ns)]))
+
+
+def taken_apart(stamps_ns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Stamps (N,) ns that go back at some steps (trials laid end to end, each timed from its own
+    start; a clock set back): (the stamps with each run after such a step moved to begin
+    :data:`JUMP_GAP_PERIODS` median forward steps after the one before ends, a gap that cuts the
+    recording there; the indices k of the steps back, from sample k to k + 1). Stamps that never go
+    back are returned as they are."""
+    stamps_ns = np.asarray(stamps_ns, dtype=np.int64)
+    steps = np.diff(stamps_ns)
+    back = np.flatnonzero(steps < 0)
+    if not back.size:
+        return stamps_ns, back
+    forward = steps[steps > 0]
+    period = int(np.median(forward)) if forward.size else 0  # none: stamps that repeat, refused with the recording
+    shift = np.zeros(len(stamps_ns), dtype=np.int64)
+    shift[back + 1] = stamps_ns[back] - stamps_ns[back + 1] + JUMP_GAP_PERIODS * period
+    return stamps_ns + np.cumsum(shift), back
 
 
 def velocity_from_positions(stamps_ns: np.ndarray, q: np.ndarray) -> np.ndarray:

@@ -131,6 +131,33 @@ def test_messages_without_velocities_give_them_as_the_positions_difference(tmp_p
     assert notes == [f"{path}: no message on /robot/joint_states gives velocities; q̇ is the central difference of q over the stamps"]
 
 
+def test_stamps_that_go_back_take_the_recording_apart_there(tmp_path: Path) -> None:
+    """A bag of two runs whose header stamps start again (a clock set back: a simulator reset):
+    each run read as it is, the second moved to begin 10 periods after the first ends (a gap: the
+    recording cut there), a note saying so; stamps that go back at most steps refused."""
+    first, second = joint_states(N, seed=1), joint_states(N // 2, seed=2)
+    msgs = [
+        (k, message("ros1", t, BAXTER_JOINTS, *(states[f][i] for f in ("position", "velocity", "effort"))))
+        for k, (states, i, t) in enumerate([(first, i, t) for i, t in enumerate(first["stamps_ns"])] + [(second, i, t) for i, t in enumerate(second["stamps_ns"])])
+    ]
+    path = write_bag(bag_path(tmp_path, "ros1"), "ros1", {"/robot/joint_states": msgs})
+    notes: list[str] = []
+    rec = read_bag_recording(path, note=notes.append)
+    step = 10_000_000  # 100 Hz
+    np.testing.assert_array_equal(rec.stamps_ns, first["stamps_ns"][0] + np.concatenate([np.arange(N), N - 1 + 10 + np.arange(N // 2)]) * step)
+    for got, a, b in zip((rec.q, rec.qd, rec.effort), columns(first, arm_joint_names("right")), columns(second, arm_joint_names("right"))):
+        np.testing.assert_array_equal(got, np.vstack([a, b]))
+    assert [stop - start for start, stop in rec.segments] == [N, N // 2]
+    assert notes == [
+        f"{path}: the stamps of the messages on /robot/joint_states go back at 1 message(s) (first after sample {N - 1}): a clock set back, "
+        "or recordings laid end to end; taken apart there (gaps of unknown length, 10 samples in the stamps)"
+    ]
+    shuffled = [(k, m) for k, (_, m) in enumerate(msgs[i] for i in np.random.default_rng(0).permutation(len(msgs)))]
+    path = write_bag(tmp_path / "shuffled.bag", "ros1", {"/robot/joint_states": shuffled})
+    with pytest.raises(RecordingFileError, match=r"the stamps of the messages on /robot/joint_states go back at \d+ of 449 steps: no time series"):
+        read_bag_recording(path, note=None)
+
+
 def test_bag_without_header_stamps_uses_receive_times(tmp_path: Path) -> None:
     states = joint_states(30)
     receive_ns = states["stamps_ns"] + 1234
