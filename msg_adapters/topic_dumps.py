@@ -54,7 +54,7 @@ import ast
 import csv
 import os
 import re
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Collection, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -88,11 +88,12 @@ ROSBAG_TO_CSV_NAMES = ".name"
 #: The first line of messages as ``rostopic echo`` and ``ros2 topic echo`` print them; the line after each.
 ECHO_START = "header:"
 ECHO_END = "---"
-#: Their stamp's fields of seconds and nanoseconds (ROS 1's, ROS 2's), and the arrays read: q, q̇,
-#: effort of a JointState, or of a SEAJointState (its actual_* arrays, where the message has them).
+#: Their stamp's fields of seconds and nanoseconds (ROS 1's, ROS 2's).
 _ECHO_SECONDS = frozenset({"secs", "sec"})
 _ECHO_NANOSECONDS = frozenset({"nsecs", "nanosec"})
-_ECHO_ARRAYS = (("position", "velocity", "effort"), ("actual_position", "actual_velocity", "actual_effort"))
+#: The arrays read as q, q̇, effort of every layout: a JointState's, or a SEAJointState's actual_*
+#: arrays, where the message has them (:func:`_state_arrays`).
+_STATE_ARRAYS = (("position", "velocity", "effort"), ("actual_position", "actual_velocity", "actual_effort"))
 #: YAML's spellings of floats that Python's float() does not read (ROS 2 prints NaN as .nan).
 _YAML_FLOATS = {".nan": "nan", ".inf": "inf", "+.inf": "inf", "-.inf": "-inf"}
 #: A header field of an array's element (``field.position3``, bagpy's ``position_3``): its array is
@@ -216,19 +217,19 @@ class _Layout:
         it: its rows are read in the full layout."""
         arrays = [f.removeprefix("field.") for f in dict.fromkeys(_ARRAY_FIELD.sub("", f) for f in fields if _ARRAY_FIELD.search(f))]
         scalars = [f for f in fields if not _ARRAY_FIELD.search(f)]
-        wanted = _ECHO_ARRAYS[1] if _ECHO_ARRAYS[1][0] in arrays else _ECHO_ARRAYS[0]
+        wanted = _state_arrays(arrays)
         if all(w in arrays for w in wanted):
             return cls(tuple(arrays.index(w) for w in wanted), len(arrays), len(scalars))
         if wanted[0] == "position" and not scalars and set(arrays) <= set(wanted):
             return cls((0, 1, 2), 3, 0)
         raise _not_joint_states(path, arrays, scalars)
 
-    @classmethod
-    def whole_fields(cls, path: Path, fields: list[str]) -> tuple[int, int, int]:
+    @staticmethod
+    def whole_fields(path: Path, fields: list[str]) -> tuple[int, int, int]:
         """Where q, q̇ and effort are among the fields after the joint names of a header that gives
         each array one field (rosbag_to_csv's): a JointState's position, velocity, effort, or a
         SEAJointState's actual_* (every one of them there)."""
-        wanted = _ECHO_ARRAYS[1] if _ECHO_ARRAYS[1][0] in fields else _ECHO_ARRAYS[0]
+        wanted = _state_arrays(fields)
         if not all(w in fields for w in wanted):
             raise _not_joint_states(path, fields, [])
         return (fields.index(wanted[0]), fields.index(wanted[1]), fields.index(wanted[2]))
@@ -236,6 +237,12 @@ class _Layout:
     def arrays(self, values: np.ndarray, m: int) -> list[np.ndarray]:
         """q, q̇, effort (n, m) of rows of numbers (n, count·m + trailing)."""
         return [values[:, i * m : (i + 1) * m] for i in self.index]
+
+
+def _state_arrays(names: Collection[str]) -> tuple[str, str, str]:
+    """The arrays read as q, q̇ and effort among a message's ``names``: a SEAJointState's actual_*
+    where it has them, else a JointState's position, velocity, effort."""
+    return _STATE_ARRAYS[1] if _STATE_ARRAYS[1][0] in names else _STATE_ARRAYS[0]
 
 
 def _not_joint_states(path: Path, arrays: list[str], scalars: list[str]) -> RecordingFileError:
@@ -454,7 +461,7 @@ class _EchoMessage:
         """(stamp ns, names, the text of its q, q̇ and effort numbers, comma-separated); ValueError
         where the stamp is no time."""
         stamp_ns = _stamp_ns(self.seconds or "", self.nanoseconds or "")
-        arrays = _ECHO_ARRAYS[1] if _ECHO_ARRAYS[1][0] in self.lists else _ECHO_ARRAYS[0]
+        arrays = _state_arrays(self.lists)
         numbers = [_YAML_FLOATS.get(x.lower(), x) for array in arrays for x in self.lists.get(array, [])]
         return stamp_ns, tuple(self.lists.get("name", ())), ",".join(numbers)
 

@@ -62,10 +62,11 @@ def check_recording(arm: ArmModel, label: str, rec: Recording, what: str) -> Non
         )
     tau = arm.inverse_dynamics(rec.q, rec.qd, zero_phase_acceleration(rec.qd, rec.rate_hz, min(4.0, 0.4 * rec.rate_hz), segments=rec.segments))
     corr = {j: float(np.corrcoef(rec.effort[:, j], tau[:, j])[0, 1]) for j in np.flatnonzero(np.ptp(tau, axis=0) > 0.0)}
-    if not corr or max(map(abs, corr.values())) < MIN_MODEL_CORRELATION:
+    best = max(map(abs, corr.values()), default=0.0)
+    if best < MIN_MODEL_CORRELATION:
         raise DiagnosisError(
             f"{label}: the effort follows the rigid-body torque at no joint (largest correlation "
-            f"{max(map(abs, corr.values()), default=0.0):.2f}, at least {MIN_MODEL_CORRELATION:g} expected): is it this arm's joint torque, in N·m?"
+            f"{best:.2f}, at least {MIN_MODEL_CORRELATION:g} expected): is it this arm's joint torque, in N·m?"
         )
     against = {arm.joint_names[j]: c for j, c in corr.items() if c <= -MIN_MODEL_CORRELATION and j != S1}
     if against:
