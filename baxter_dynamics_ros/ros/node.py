@@ -78,6 +78,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import functools
+import signal
 import sys
 import threading
 import time
@@ -92,7 +93,7 @@ from rclpy.context import Context
 from rclpy.duration import Duration
 from rclpy.event_handler import PublisherEventCallbacks, QoSPublisherMatchedInfo, SubscriptionEventCallbacks
 from rclpy.exceptions import NameValidationException, ParameterException
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.guard_condition import GuardCondition
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
@@ -453,23 +454,40 @@ def _descriptor(spec: dataclasses.Field) -> ParameterDescriptor:
 
 
 def main(args: Sequence[str] | None = None) -> int:
-    """Run the node until Ctrl-C or shutdown; ``args`` as for rclpy.init (default sys.argv).
+    """Run the node until Ctrl-C, SIGTERM or shutdown; ``args`` as for rclpy.init (default sys.argv).
 
-    Returns 0 when stopped, 1 (after one ``ERROR:`` line) when the parameters are refused or
-    when taking joint states failed.
+    Returns 0 when stopped, also while starting; 1 (after one ``ERROR:`` line) when the parameters
+    are refused or when taking joint states failed.
     """
+    # One way to stop: rclpy's handlers shut the context down at Ctrl-C or SIGTERM, and spin ends
+    # with ExternalShutdownException. Python's own SIGINT handler, which rclpy's calls after, would
+    # raise a KeyboardInterrupt at any point of the shutdown that follows (ros-tooling/topic_tools#104;
+    # an exit by SIGINT, code -2, after destroy_node in this project's CI), so it only notes the
+    # signal, for a Ctrl-C while rclpy.init has not yet put rclpy's handler in.
+    interrupted = threading.Event()
+    signal.signal(signal.SIGINT, lambda signum, frame: interrupted.set())
     rclpy.init(args=args)
     try:
-        node = DynamicsNode()
+        executor = SingleThreadedExecutor()  # first: none can be made once a Ctrl-C shut the context down
+        node = None if interrupted.is_set() else DynamicsNode()
     except (BaxterDynamicsError, ParameterException, NameValidationException) as err:
         print(f"ERROR: {err}", file=sys.stderr)
         rclpy.try_shutdown()
         return 1
+    except Exception:
+        if rclpy.ok():
+            raise
+        node = None  # stopped while starting: the context was shut down under the constructor
+    if node is None:
+        rclpy.try_shutdown()
+        return 0
     try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
+        executor.add_node(node)
+        executor.spin()
+    except ExternalShutdownException:
         pass
     finally:
+        executor.shutdown()
         node.destroy_node()
         rclpy.try_shutdown()
     if node.input_error is not None:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import signal
 import subprocess
 import sys
 import time
@@ -21,6 +22,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from processes import interrupt
 from repo_paths import REPO
 from recorded_bags import START_NS, joint_states
 
@@ -545,6 +547,48 @@ def test_left_arm_namespaced_from_the_params_file_then_ctrl_c(ros_client, node_p
     node.check(samples.stamps_ns, q, qd, expected_torques(LEFT, samples.stamps_ns, q, qd, effort), LEFT.joint_names)
     assert process.stop() == 0
     assert "Traceback" not in process.output()
+
+
+# A Ctrl-C at each point where the node has been seen, or could be, to leave by KeyboardInterrupt (an
+# exit by SIGINT, code -2, with a traceback): the node sends it to itself there, then lets Python's and
+# rclpy's handlers act (0.5 s) before going on.
+CTRL_C_AT = {
+    "before rclpy's handler is in": "rclpy.init",
+    "under the constructor": "baxter_dynamics_ros.ros.node.DynamicsNode.__init__",
+    "again in the shutdown": "baxter_dynamics_ros.ros.node.DynamicsNode.destroy_node",
+}
+
+
+@pytest.mark.parametrize("where", sorted(CTRL_C_AT))
+def test_ctrl_c_at_any_point_stops_the_node_cleanly(where: str, ros_domain, tmp_path: Path) -> None:
+    owner, name = CTRL_C_AT[where].rsplit(".", 1)
+    code = (
+        "import functools, os, pydoc, signal, sys, time\n"
+        "from baxter_dynamics_ros.ros.node import main\n"
+        f"owner = pydoc.locate({owner!r})\n"
+        f"original = getattr(owner, {name!r})\n"
+        "@functools.wraps(original)\n"
+        "def interrupted(*args, **kwargs):\n"
+        "    os.kill(os.getpid(), signal.SIGINT)\n"
+        "    time.sleep(0.5)\n"
+        "    return original(*args, **kwargs)\n"
+        f"setattr(owner, {name!r}, interrupted)\n"
+        "sys.exit(main())\n"
+    )
+    log = tmp_path / "node.log"
+    with log.open("w") as out:
+        process = subprocess.Popen([sys.executable, "-c", code, "--ros-args", "-r", "__ns:=/ctrl_c"], cwd=REPO, stdout=out, stderr=subprocess.STDOUT)
+    try:
+        if name == "destroy_node":  # the first Ctrl-C from here, once the node is up
+            deadline = time.monotonic() + 60.0
+            while "right arm (" not in log.read_text() and time.monotonic() < deadline:
+                assert process.poll() is None, log.read_text()
+                time.sleep(0.2)
+            process.send_signal(signal.SIGINT)
+        assert process.wait(timeout=60) == 0, log.read_text()
+    finally:
+        interrupt(process)
+    assert "Traceback" not in log.read_text()
 
 
 def test_effects_file_from_the_diagnosis_is_compensated(ros_client, node_processes, tmp_path: Path) -> None:
