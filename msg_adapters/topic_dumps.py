@@ -20,7 +20,8 @@ names the header gives, and that many fields are passed over before the names of
 sample of the arm (a joint missing, an array missing or of another length, a value that is not a
 number) are skipped and counted as a bag's malformed messages are
 (:func:`msg_adapters.bag_io.joint_state_recording`, which assembles the recording); rows without a
-readable time, in a line of their own.
+readable time, in a line of their own. Messages whose velocity array alone is empty (a driver that
+gives none) are read as a bag's: where no message gives velocities, q̇ is the central difference of q.
 
 bagpy (``bagreader(run.bag).message_by_topic("/robot/joint_states")``, how a ROS 1 bag is most often
 turned into CSV in Python) writes a CSV file (quoted where a field holds a comma) whose header is
@@ -203,25 +204,26 @@ def _values(texts: list[str]) -> list[np.ndarray | None]:
 @dataclass(frozen=True)
 class _Layout:
     """What follows a row's m names: ``count`` arrays of m numbers, then ``trailing`` single numbers;
-    q, q̇ and effort are the arrays at ``index``."""
+    q, q̇ and effort are the arrays at ``index`` (q̇'s None: the messages give no velocities)."""
 
-    index: tuple[int, int, int]
+    index: tuple[int, int | None, int]
     count: int
     trailing: int
 
     @classmethod
-    def of_header(cls, path: Path, fields: list[str]) -> _Layout:
-        """The layout the header names after the joint names: its arrays in their order (a JointState's
-        position, velocity, effort; a SEAJointState's, whichever version, with actual_*), then its
-        single numbers. A JointState whose first message left an array empty has a header without
-        it: its rows are read in the full layout."""
+    def of_header(cls, path: Path, fields: list[str]) -> tuple[_Layout, ...]:
+        """The layouts of the rows under a header, the header's own first: its arrays in their order
+        after the joint names (a JointState's position, velocity, effort; a SEAJointState's, whichever
+        version, with actual_*), then its single numbers. The header is named after the first
+        message: where that left an array empty, its rows are read in the full layout too, and
+        where the array is velocity (a driver that gives none), without it first."""
         arrays = [f.removeprefix("field.") for f in dict.fromkeys(_ARRAY_FIELD.sub("", f) for f in fields if _ARRAY_FIELD.search(f))]
         scalars = [f for f in fields if not _ARRAY_FIELD.search(f)]
         wanted = _state_arrays(arrays)
         if all(w in arrays for w in wanted):
-            return cls(tuple(arrays.index(w) for w in wanted), len(arrays), len(scalars))
+            return (cls(tuple(arrays.index(w) for w in wanted), len(arrays), len(scalars)),)
         if wanted[0] == "position" and not scalars and set(arrays) <= set(wanted):
-            return cls((0, 1, 2), 3, 0)
+            return JOINT_STATE_LAYOUTS if arrays == ["position", "effort"] else JOINT_STATE_LAYOUTS[:1]
         raise _not_joint_states(path, arrays, scalars)
 
     @staticmethod
@@ -234,9 +236,26 @@ class _Layout:
             raise _not_joint_states(path, fields, [])
         return (fields.index(wanted[0]), fields.index(wanted[1]), fields.index(wanted[2]))
 
-    def arrays(self, values: np.ndarray, m: int) -> list[np.ndarray]:
-        """q, q̇, effort (n, m) of rows of numbers (n, count·m + trailing)."""
-        return [values[:, i * m : (i + 1) * m] for i in self.index]
+    def width(self, m: int) -> int:
+        """How many numbers follow m names."""
+        return self.count * m + self.trailing
+
+    def arrays(self, values: np.ndarray, m: int) -> list[np.ndarray | None]:
+        """q, q̇, effort (n, m) of rows of numbers (n, count·m + trailing); q̇ None without velocities."""
+        return [None if i is None else values[:, i * m : (i + 1) * m] for i in self.index]
+
+
+#: A JointState's rows: position, velocity, effort; or, where it leaves velocity empty, position and effort.
+JOINT_STATE_LAYOUTS = (_Layout((0, 1, 2), 3, 0), _Layout((0, None, 1), 2, 0))
+
+
+def _state_numbers(position: list[str], velocity: list[str], effort: list[str]) -> list[str]:
+    """The numbers of a message whose arrays are named (echoed, rosbag_to_csv's) in one of
+    JOINT_STATE_LAYOUTS: all three, or position and effort where velocity alone is empty; none
+    (a row that fits no layout) where position or effort is."""
+    if not (position and effort):
+        return []
+    return position + velocity + effort
 
 
 def _state_arrays(names: Collection[str]) -> tuple[str, str, str]:
@@ -257,8 +276,8 @@ def _not_joint_states(path: Path, arrays: list[str], scalars: list[str]) -> Reco
 class _Rows:
     """Rows read so far: their times, and blocks of rows naming the same joints (one per chunk)."""
 
-    def __init__(self, layout: _Layout) -> None:
-        self.layout = layout
+    def __init__(self, layouts: tuple[_Layout, ...]) -> None:
+        self.layouts = layouts
         self.times_ns: list[int] = []
         self.stamps_ns: list[int] = []
         self.blocks: list[JointStateBlock] = []
@@ -276,20 +295,19 @@ class _Rows:
             self.flush()
 
     def flush(self) -> None:
-        """Decode the pending rows into blocks of one name list each, those whose numbers fit the
-        layout apart from those that do not (an empty array left out, a value not a number)."""
+        """Decode the pending rows into blocks of one name list and layout each (the first whose
+        width their numbers have), apart from those that fit none (an array left out, a value not a
+        number)."""
         for names, (index, texts) in self.pending.items():
             m = len(names)
-            width = self.layout.count * m + self.layout.trailing
-            fit: dict[bool, list[tuple[int, np.ndarray | None]]] = {True: [], False: []}
+            widths = {layout.width(m): layout for layout in reversed(self.layouts)} if m else {}
+            fit: dict[_Layout | None, list[tuple[int, np.ndarray | None]]] = {}
             for k, values in zip(index, _values(texts)):
-                fit[bool(m) and values is not None and len(values) == width].append((k, values))
-            for fits, rows in fit.items():
-                if not rows:
-                    continue
+                fit.setdefault(None if values is None else widths.get(len(values)), []).append((k, values))
+            for layout, rows in fit.items():
                 rows_index = np.array([k for k, _ in rows], dtype=np.int64)
                 stamps = np.array([self.stamps_ns[k] for k in rows_index], dtype=np.int64)
-                arrays = self.layout.arrays(np.array([v for _, v in rows], dtype=np.float64), m) if fits else [None, None, None]
+                arrays = [None, None, None] if layout is None else layout.arrays(np.array([v for _, v in rows], dtype=np.float64), m)
                 self.blocks.append(JointStateBlock(rows_index, names, stamps, *arrays))
         self.pending = {}
 
@@ -319,7 +337,7 @@ def _frame_id_commas(rest: str, m: int, layout: _Layout) -> int:
     not a number before the names. 0 when the row's numbers do not fit m names in the layout."""
     fields = rest.split(",")
     k = _leading_texts(fields)
-    return k - m if k > m and len(fields) - k == layout.count * m + layout.trailing else 0
+    return k - m if k > m and len(fields) - k == layout.width(m) else 0
 
 
 def _rostopic_rows(path: Path, header: list[str], lines: Iterable[str]) -> tuple[_Rows, int]:
@@ -346,7 +364,7 @@ def _rostopic_rows(path: Path, header: list[str], lines: Iterable[str]) -> tuple
             continue
         rest = fields[names_at]
         if commas is None:
-            commas = _frame_id_commas(rest, header_names, rows.layout)
+            commas = _frame_id_commas(rest, header_names, rows.layouts[0])
         if commas:
             rest = rest.split(",", commas)[-1] if rest.count(",") >= commas else ""
         names, numbers = _split_names(rest, names)
@@ -379,7 +397,7 @@ def _bagpy_rows(path: Path, header: list[str], lines: Iterable[str]) -> tuple[_R
     after = header[names_at + 1 :]
     if listed and not any(_ARRAY_FIELD.search(h) for h in after):  # rosbag_to_csv's: each array in one field
         whole = [names_at + 1 + k for k in _Layout.whole_fields(path, after)]
-        rows = _Rows(_Layout((0, 1, 2), 3, 0))
+        rows = _Rows(JOINT_STATE_LAYOUTS)
     else:
         whole = []
         rows = _Rows(_Layout.of_header(path, [h for h in header[names_at:] if _ARRAY_FIELD.sub("", h) != "name"]))
@@ -399,7 +417,7 @@ def _bagpy_rows(path: Path, header: list[str], lines: Iterable[str]) -> tuple[_R
         if listed:
             if fields[names_at] != listing:
                 listing, names = fields[names_at], _listed_names(fields[names_at])
-            numbers = [_tuple_items(fields[k]) if k < len(fields) else "" for k in whole] if whole else fields[names_at + 1 :]
+            numbers = _state_numbers(*(_tuple_items(fields[k]) if k < len(fields) else [] for k in whole)) if whole else fields[names_at + 1 :]
         else:
             m = _leading_texts(fields[names_at:])
             names, numbers = tuple(fields[names_at : names_at + m]), fields[names_at + m :]
@@ -407,10 +425,9 @@ def _bagpy_rows(path: Path, header: list[str], lines: Iterable[str]) -> tuple[_R
     return rows, unreadable
 
 
-def _tuple_items(field: str) -> str:
-    """The numbers of a tuple or list as Python prints it (``(0.1, -0.2)``, rosbag_to_csv's arrays),
-    comma-separated."""
-    return field.strip(" ()[]").replace(" ", "")
+def _tuple_items(field: str) -> list[str]:
+    """The numbers of a tuple or list as Python prints it (``(0.1, -0.2)``, rosbag_to_csv's arrays)."""
+    return [x for x in field.strip(" ()[]").replace(" ", "").split(",") if x]
 
 
 def _unquoted(text: str) -> str:
@@ -462,14 +479,14 @@ class _EchoMessage:
         where the stamp is no time."""
         stamp_ns = _stamp_ns(self.seconds or "", self.nanoseconds or "")
         arrays = _state_arrays(self.lists)
-        numbers = [_YAML_FLOATS.get(x.lower(), x) for array in arrays for x in self.lists.get(array, [])]
+        numbers = _state_numbers(*([_YAML_FLOATS.get(x.lower(), x) for x in self.lists.get(array, [])] for array in arrays))
         return stamp_ns, tuple(self.lists.get("name", ())), ",".join(numbers)
 
 
 def _echo_rows(lines: Iterable[str]) -> tuple[_Rows, int]:
     """The messages of an echo after its first line (module docstring), and how many had no
     readable stamp. A last message without its ``---`` (a dump cut short) is read as it is."""
-    rows = _Rows(_Layout((0, 1, 2), 3, 0))
+    rows = _Rows(JOINT_STATE_LAYOUTS)
     unreadable = 0
 
     def take(message: _EchoMessage) -> None:

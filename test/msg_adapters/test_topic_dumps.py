@@ -433,3 +433,58 @@ def test_echoed_sea_joint_states_are_read_from_their_actual_arrays(tmp_path: Pat
     np.testing.assert_array_equal(rec.stamps_ns, states["stamps_ns"])
     for got, want in zip((rec.q, rec.qd, rec.effort), (states["position"], states["velocity"], states["effort"])):
         np.testing.assert_array_equal(got, want)
+
+
+DUMPS_WITHOUT_VELOCITIES = ("rostopic", "bagpy", "rosbag_to_csv", "echo", "ros2 echo")
+
+
+def write_without_velocities(path: Path, states: dict, dump: str) -> Path:
+    """A dump of ``states`` as a driver that leaves every message's velocity array empty gives it."""
+    stamps, position, effort = states["stamps_ns"], states["position"], states["effort"]
+    messages = [(int(t), int(t), BAXTER_JOINTS, position[k], [], effort[k]) for k, t in enumerate(stamps)]
+    if dump == "rostopic":
+        rows = [rostopic_plot_row(int(t), int(t), BAXTER_JOINTS, position[k], effort[k]) for k, t in enumerate(stamps)]
+        path.write_text("\n".join([rostopic_plot_header(BAXTER_JOINTS, ("position", "effort")), *rows]) + "\n")
+    elif dump == "bagpy":
+        write_bagpy_table(path, messages)
+    elif dump == "rosbag_to_csv":
+        write_rosbag_to_csv_table(path, messages)
+    else:
+        path.write_text("\n".join(echo_message(*m[1:], ros2=dump == "ros2 echo") for m in messages) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("dump", DUMPS_WITHOUT_VELOCITIES)
+def test_without_velocities_q_dot_is_the_central_difference_of_q(tmp_path: Path, dump: str) -> None:
+    """Every message's velocity empty, in each dump's way (rostopic's and bagpy's headers without
+    velocity fields, rosbag_to_csv's ``()``, echo's ``[]``): q and effort to the last bit, q̇ numpy's
+    central difference of q over the stamps, said in a note; as a bag's are read."""
+    states = joint_states(N)
+    path = write_without_velocities(tmp_path / "run.csv", states, dump)
+    notes: list[str] = []
+    rec = read_recording(path, note=notes.append)
+    assert rec.side == "right" and notes == [f"{path}: no message in this file gives velocities; q̇ is the central difference of q over the stamps"]
+    q, _, effort = columns(states, arm_joint_names("right"))
+    np.testing.assert_array_equal(rec.stamps_ns, states["stamps_ns"])
+    np.testing.assert_array_equal(rec.q, q)
+    np.testing.assert_array_equal(rec.effort, effort)
+    np.testing.assert_allclose(rec.qd, np.gradient(q, (states["stamps_ns"] - states["stamps_ns"][0]) * 1e-9, axis=0), rtol=1e-12, atol=1e-12)
+
+
+def test_where_some_messages_give_velocities_those_are_read_and_the_rest_counted(tmp_path: Path) -> None:
+    """A rostopic table whose first message (which names the header) gave no velocities, the others
+    all three: the messages with velocities read exactly, the first skipped as malformed. And an echoed
+    message without efforts but with velocities is never read as position and effort."""
+    states = joint_states(N)
+    head = rostopic_plot_header(BAXTER_JOINTS, ("position", "effort"))
+    first = rostopic_plot_row(int(states["stamps_ns"][0]) - 10**7, int(states["stamps_ns"][0]) - 10**7, BAXTER_JOINTS, states["position"][0], states["effort"][0])
+    full = write_rostopic_table(tmp_path / "full.csv", states).read_text().splitlines()[1:]
+    path = tmp_path / "run.csv"
+    path.write_text("\n".join([head, first, *full]) + "\n")
+    notes: list[str] = []
+    assert_arm(read_recording(path, note=notes.append), states, "right")
+    assert notes == [f"WARNING: {path}: 1 of {N + 1} messages in this file skipped as malformed (1 {SkipReason.ARRAY_LENGTH.value})"]
+    no_effort = tmp_path / "no_effort.txt"
+    no_effort.write_text("\n".join(echo_message(int(t), BAXTER_JOINTS, states["position"][k], states["velocity"][k], []) for k, t in enumerate(states["stamps_ns"])) + "\n")
+    with pytest.raises(RecordingFileError, match=r"no message in this file has position, velocity and effort \(or, where none gives velocities, position and effort\)"):
+        read_recording(no_effort, note=None)
