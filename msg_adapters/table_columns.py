@@ -17,9 +17,10 @@ begins with a topic's path, as PlotJuggler's CSV export writes them
 - units: SI (``rad``, ``rad/s``, ``N·m``/``Nm``) as the package uses them, or degrees (``deg``,
   ``deg/s``, ``°``, ``°/s``) for positions and velocities, converted; any other unit word makes the
   name unknown;
-- indexed joints (``q1 … q7``, ``dq_0 … dq_6``, ``tau[1]``): Baxter's order s0, s1, e0, e1, w0,
-  w1, w2, and only where a quantity's indices are exactly 1–7 or 0–6 (a table of 17 joints, as
-  /robot/joint_states holds, does not say which seven are an arm's);
+- indexed joints (``q1 … q7``, ``dq_0 … dq_6``, ``tau[1]``, ``joint1_pos``, ``j1_torque``,
+  ``Joint 1 Position``): Baxter's order s0, s1, e0, e1, w0, w1, w2, and only where a quantity's
+  indices are exactly 1–7 or 0–6 (a table of 17 joints, as /robot/joint_states holds, does not say
+  which seven are an arm's);
 - time: ``time``, ``t``, ``stamp``, ``timestamp``, ``%time``, with a unit word (``s``, ``ms``,
   ``us``/``µs``, ``ns`` and their spellings) or none (:attr:`TimeColumn.scale_s` None: the reader
   infers it).
@@ -49,7 +50,9 @@ _QUANTITY_WORDS = {
 }
 _QUANTITY_OF = {word: quantity for quantity, words in _QUANTITY_WORDS.items() for word in words}
 _SIDE_OF = {"left": "left", "l": "left", "right": "right", "r": "right"}
-_NEUTRAL = frozenset({"joint", "joints", "state", "states", "measured", "meas", "actual"})
+_NEUTRAL = frozenset({"joint", "joints", "j", "jnt", "state", "states", "measured", "meas", "actual"})
+#: Words that, with an index after them (``joint1``, ``j1``), give the joint's index and nothing else.
+_INDEX_WORDS = frozenset({"joint", "j", "jnt"})
 #: Unit words that leave SI values as they are (rad, rad/s, N·m), and the degree's.
 _SI_UNITS = frozenset({"rad", "rads", "s", "sec", "nm", "n", "m"})
 _DEGREE_UNITS = frozenset({"deg", "degs", "degree", "degrees", "°"})
@@ -139,6 +142,8 @@ def _meaning(name: str) -> tuple[str, str | None, str | None, int | None, tuple[
         elif indexed and indexed.group(1) in _QUANTITY_OF and quantity is None and index is None:
             quantity, index = _QUANTITY_OF[indexed.group(1)], int(indexed.group(2))
             span = (start + len(indexed.group(1)), end)
+        elif indexed and indexed.group(1) in _INDEX_WORDS and index is None:
+            index, span = int(indexed.group(2)), (start + len(indexed.group(1)), end)
         elif word.isdigit() and index is None:
             index, span = int(word), (start, end)
         elif word in _DEGREE_UNITS:

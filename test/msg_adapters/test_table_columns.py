@@ -64,6 +64,12 @@ def test_indexed_columns_are_baxters_order_only_when_seven() -> None:
     assert [seven[("effort", None, j)].name for j in JOINT_SUFFIXES] == [f"tau_{k}" for k in range(7)]
     assert joint_columns([f"position{k}" for k in range(17)]) == {}  # /robot/joint_states' 17 joints
     assert joint_columns([f"q{k}" for k in range(2, 9)]) == {}
+    for name in (lambda q, k: f"joint{k}_{q}", lambda q, k: f"j{k}_{q}", lambda q, k: f"{q}_jnt{k}", lambda q, k: f"Joint {k} {q.title()}"):
+        found = joint_columns([name(q, k) for q in ("position", "velocity", "torque") for k in range(1, 8)])
+        assert [found[(quantity, None, j)].name for quantity in ("position", "velocity", "effort") for j in JOINT_SUFFIXES] == [
+            name(q, k) for q in ("position", "velocity", "torque") for k in range(1, 8)
+        ]
+    assert joint_columns(["joint1_s0_position", "joint1_sensor_position", "joint_position"]) == {}  # two joints; a word more; no joint
 
 
 def test_two_columns_saying_the_same_are_refused() -> None:
@@ -83,8 +89,9 @@ def test_time_columns_nanoseconds_first_then_with_a_unit() -> None:
         lambda k, j: f"left_{JOINT_SUFFIXES[j]}.{('position', 'velocity', 'effort')[k]}",
         lambda k, j: f"{('Q', 'dQ', 'Tau')[k]}_L_{JOINT_SUFFIXES[j].upper()}",
         lambda k, j: f"/robot/joint_states/left_{JOINT_SUFFIXES[j]}/{('position', 'velocity', 'effort')[k]}",
+        lambda k, j: f"left_joint{j + 1}_{('pos', 'vel', 'torque')[k]}",
     ],
-    ids=["quantity_side_joint", "side_joint.quantity", "upper case", "PlotJuggler"],
+    ids=["quantity_side_joint", "side_joint.quantity", "upper case", "PlotJuggler", "joint index"],
 )
 def test_named_layouts_read_the_arm_from_the_names(tmp_path: Path, sim, name) -> None:
     t = (sim.stamps_ns - sim.stamps_ns[0]) * 1e-9
