@@ -13,7 +13,8 @@ begins with a topic's path, as PlotJuggler's CSV export writes them
 (``/robot/joint_states/left_s0/position``), is read from the path's segment that names the joint.
 
 - quantity words: position ``position pos ang angle q qpos theta``; velocity ``velocity vel qd dq
-  qdot qvel speed dtheta thetadot``; effort ``effort eff torque torq tau trq`` (plurals too);
+  qdot qvel speed dtheta thetadot``, or ``dot`` or a velocity word after ``q theta ang angle``
+  (``theta_dot``, ``q_vel``, ``ang_vel``); effort ``effort eff torque torq tau trq`` (plurals too);
 - units: SI (``rad``, ``rad/s``, ``N·m``/``Nm``) as the package uses them, or degrees (``deg``,
   ``deg/s``, ``°``, ``°/s``) for positions and velocities, converted; any other unit word makes the
   name unknown;
@@ -49,8 +50,10 @@ _QUANTITY_WORDS = {
     "effort": ("effort", "efforts", "eff", "torque", "torques", "torq", "tau", "trq"),
 }
 _QUANTITY_OF = {word: quantity for quantity, words in _QUANTITY_WORDS.items() for word in words}
+#: Position words that a velocity word or ``dot`` after them makes a velocity (``theta_dot``, ``q_vel``, ``ang_vel``).
+_ANGLE_WORDS = frozenset({"q", "theta", "ang", "angle"})
 _SIDE_OF = {"left": "left", "l": "left", "right": "right", "r": "right"}
-_NEUTRAL = frozenset({"joint", "joints", "j", "jnt", "state", "states", "measured", "meas", "actual"})
+_NEUTRAL = frozenset({"joint", "joints", "j", "jnt", "angular", "state", "states", "measured", "meas", "actual"})
 #: Words that, with an index after them (``joint1``, ``j1``), give the joint's index and nothing else.
 _INDEX_WORDS = frozenset({"joint", "j", "jnt"})
 #: Unit words that leave SI values as they are (rad, rad/s, N·m), and the degree's.
@@ -108,6 +111,18 @@ def _words(name: str) -> list[tuple[str, tuple[int, int]]]:
     return [(w.group().lower(), w.span()) for w in _WORD.finditer(name)]
 
 
+def _rates(words: list[tuple[str, tuple[int, int]]]) -> list[tuple[str, tuple[int, int]]]:
+    """The words, an angle's word and ``dot`` or a velocity word after it (``theta_dot``, ``q_vel``)
+    taken as one word of velocity, ``qdot``."""
+    out: list[tuple[str, tuple[int, int]]] = []
+    for word, where in words:
+        if out and out[-1][0] in _ANGLE_WORDS and (word == "dot" or _QUANTITY_OF.get(word) == "velocity"):
+            out[-1] = ("qdot", (out[-1][1][0], where[1]))
+        else:
+            out.append((word, where))
+    return out
+
+
 def _joint_word(words: Sequence[tuple[str, tuple[int, int]]]) -> tuple[str | None, str | None, tuple[int, int], list[tuple[str, tuple[int, int]]]]:
     """(side, joint, the joint word's span, the other words) of a name's words; joint None where no
     word is a joint of Baxter's, side None where none names an arm."""
@@ -133,6 +148,7 @@ def _meaning(name: str) -> tuple[str, str | None, str | None, int | None, tuple[
         segment = name.rfind("/", 0, joint_at)
         words = [(word, where) for word, where in words if where[0] > segment]
     side, joint, span, rest = _joint_word(words)
+    rest = _rates(rest)
     quantity = index = None
     scale = 1.0
     for word, (start, end) in rest:
@@ -209,7 +225,7 @@ def block_meaning(name: str) -> tuple[str, str, float | None] | None:
     "_", "" for none; the factor to the package's units — π/180 for degrees, else 1 — or for a time
     its unit in s, None where the name gives none). None unless exactly one word is a quantity's
     or the time's, or where a word names a joint."""
-    words = [word for word, _ in _words(name)]
+    words = [word for word, _ in _rates(_words(name))]
     quantities = [_QUANTITY_OF[w] for w in words if w in _QUANTITY_OF]
     if len(quantities) + sum(w in _TIME_WORDS for w in words) != 1 or any(w in JOINT_SUFFIXES for w in words):
         return None

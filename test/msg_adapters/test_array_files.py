@@ -323,6 +323,8 @@ def test_one_variable_per_quantity_with_or_without_a_time(tmp_path: Path) -> Non
         np.testing.assert_array_equal(train.stamps_ns - train.stamps_ns[0], np.round((t_ms - t_ms[0]) * 1e6).astype(np.int64))
         assert notes == [f"{path}:train: the time column time names no unit; read in ms, in which its steps match the velocities"]
         assert_read(read_recording(parts[1], arm="left", note=None), q2, qd2, tau2)
+    savemat(path, {"theta": q1, "theta_dot": qd1, "tau": tau1})  # an angle's rate, as a column name says it
+    assert_read(read_recording(path, arm="left", note=None), q1, qd1, tau1)
     savemat(path, {"q": q1, "qd": qd1, "tau": tau1[:-1]})
     with pytest.raises(RecordingFileError, match=r"identification.mat:q_qd_tau: q, qd and tau have 400, 400 and 399 samples"):
         read_recording(path, arm="left")

@@ -72,6 +72,16 @@ def test_indexed_columns_are_baxters_order_only_when_seven() -> None:
     assert joint_columns(["joint1_s0_position", "joint1_sensor_position", "joint_position"]) == {}  # two joints; a word more; no joint
 
 
+def test_an_angles_rate_is_a_velocity() -> None:
+    found = joint_columns(["theta_dot_s0", "q_vel_s1", "ang_vel_e0", "angular_velocity_e1", "q_ddot_w0", "pos_vel_w1", "theta_dot_dot_w2"])
+    assert {key: c.name for key, c in found.items()} == {
+        ("velocity", None, "s0"): "theta_dot_s0",
+        ("velocity", None, "s1"): "q_vel_s1",
+        ("velocity", None, "e0"): "ang_vel_e0",
+        ("velocity", None, "e1"): "angular_velocity_e1",
+    }  # an acceleration, a position word that is no angle's, a second dot: no joint column
+
+
 def test_two_columns_saying_the_same_are_refused() -> None:
     with pytest.raises(RecordingFileError, match="columns ang_left_s0 and position_left_s0 both hold the position of left_s0"):
         joint_columns(["ang_left_s0", "position_left_s0"])
