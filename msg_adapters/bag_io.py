@@ -84,8 +84,9 @@ def _is_ros1(path: Path) -> bool:
     return path.suffix == ".bag"
 
 
-def _read_topics(path: Path, topics: Sequence[str] | None, progress: Progress | None) -> list[TopicData]:
-    """Decode every JointState-like message on ``topics`` (None: every such topic) of a bag."""
+def _read_topics(path: Path, topics: Sequence[str] | None, progress: Progress | None, *, only_other: bool = False) -> list[TopicData]:
+    """Decode every JointState-like message on ``topics`` (None: every such topic) of a bag;
+    only_other: a bag without the one topic asked for is read on its only joint-state topic."""
     if not path.exists():
         raise RecordingFileError(f"{path}: no such file or directory")
     ros1 = _is_ros1(path)
@@ -93,7 +94,7 @@ def _read_topics(path: Path, topics: Sequence[str] | None, progress: Progress | 
     # EOF, Unicode...): all of them mean the same thing to the user, so they are translated here.
     try:
         with AnyReader([path], default_typestore=typestore(ros1)) as reader:
-            connections = _select_connections(path, reader.connections, topics)
+            connections = _select_connections(path, reader.connections, topics, only_other)
             msgtypes = {c.topic: c.msgtype for c in connections}
             total = sum(c.msgcount for c in connections)
             deserialize = reader.typestore.deserialize_ros1 if ros1 else reader.typestore.deserialize_cdr
@@ -143,10 +144,13 @@ def _corrupt(path: Path, err: Exception) -> RecordingFileError:
     return RecordingFileError(f"{path}: cannot read the bag, it is corrupt or truncated ({type(err).__name__}: {err})")
 
 
-def _select_connections(path: Path, connections: list, topics: Sequence[str] | None) -> list:
-    """The connections of the requested topics, each checked to carry a joint-state type."""
+def _select_connections(path: Path, connections: list, topics: Sequence[str] | None, only_other: bool = False) -> list:
+    """The connections of the requested topics, each checked to carry a joint-state type; where
+    ``only_other`` and the bag lacks the one topic asked for, those of its only joint-state topic."""
     by_topic = {c.topic: c.msgtype for c in connections}
     usable = sorted(t for t, m in by_topic.items() if m in JOINT_ARRAYS)
+    if only_other and topics is not None and len(topics) == 1 and topics[0] not in by_topic and len(usable) == 1:
+        topics = usable
     if topics is None:
         topics = usable
         if not topics:
@@ -172,7 +176,8 @@ def read_bag_recording(
     progress: Progress | None = None,
     note: Callable[[str], None] | None = None,
 ) -> Recording:
-    """The recording of one arm from the joint states on ``topic`` of a bag.
+    """The recording of one arm from the joint states on ``topic`` of a bag (the default, where
+    the bag lacks it, on the bag's only joint-state topic, said through ``note``).
 
     arm: "right" or "left"; None detects it from the joint names (when both arms are recorded,
     the one that moves more; see :func:`~baxter_dynamics_ros.core.recording.detect_arm`). Refuses an
@@ -183,8 +188,10 @@ def read_bag_recording(
     out, each kind counted in one line said through ``note``.
     """
     path = Path(path)
-    (data,) = _read_topics(path, [topic], progress)
-    return joint_state_recording(path, data, arm=arm, note=note, where=f"on {topic}")
+    (data,) = _read_topics(path, [topic], progress, only_other=topic == DEFAULT_TOPIC)
+    if data.topic != topic and note is not None:
+        note(f"{path}: no topic {topic}; its only joint-state topic, {data.topic}, read")
+    return joint_state_recording(path, data, arm=arm, note=note, where=f"on {data.topic}")
 
 
 def joint_state_recording(

@@ -53,7 +53,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--constant", action="store_true", help="no speed-dependent part")
     parser.add_argument("--arm", choices=("right", "left"), help="arm (default: from the joint names)")
     parser.add_argument("--model", type=Path, metavar="YAML", help="arm model file (default: the package's model of the arm)")
-    parser.add_argument("--topic", default=DEFAULT_TOPIC, help=f"joint-state topic of bags (default {DEFAULT_TOPIC})")
+    parser.add_argument("--topic", default=DEFAULT_TOPIC, help=f"joint-state topic of bags (default {DEFAULT_TOPIC}, or a bag's only joint-state topic where it has none)")
     parser.add_argument("--rate-hz", type=float, metavar="HZ", help="sample rate of tables without a time column, Hz (default: estimated from position and velocity)")
     parser.add_argument("--force", action="store_true", help="replace an existing thresholds file")
 

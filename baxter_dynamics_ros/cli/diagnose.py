@@ -46,7 +46,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", "-o", type=Path, required=True, metavar="DIR", help="output folder (created)")
     parser.add_argument("--arm", choices=("right", "left"), help="arm to diagnose (default: from the joint names)")
     parser.add_argument("--model", type=Path, metavar="YAML", help="arm model file (default: the package's model of the arm)")
-    parser.add_argument("--topic", default=DEFAULT_TOPIC, help=f"joint-state topic of bags (default {DEFAULT_TOPIC})")
+    parser.add_argument("--topic", default=DEFAULT_TOPIC, help=f"joint-state topic of bags (default {DEFAULT_TOPIC}, or a bag's only joint-state topic where it has none)")
     parser.add_argument("--rate-hz", type=float, metavar="HZ", help="sample rate of tables without a time column, Hz (default: estimated from position and velocity)")
     parser.add_argument("--force", action="store_true", help="replace the outputs of an earlier diagnosis in DIR")
     parser.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None, help="progress bar on stderr (default: when stderr is a terminal)")

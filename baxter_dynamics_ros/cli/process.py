@@ -41,7 +41,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--format", choices=("mcap", "csv", "parquet"), default="mcap", help="output format of each file when --out is a folder (default mcap)")
     parser.add_argument("--arm", choices=("right", "left"), help="arm to process (default: from the joint names)")
     parser.add_argument("--model", type=Path, metavar="YAML", help="arm model file (default: the package's model of the arm)")
-    parser.add_argument("--topic", default=DEFAULT_TOPIC, help=f"joint-state topic of a bag (default {DEFAULT_TOPIC})")
+    parser.add_argument("--topic", default=DEFAULT_TOPIC, help=f"joint-state topic of a bag (default {DEFAULT_TOPIC}, or a bag's only joint-state topic where it has none)")
     parser.add_argument(
         "--rate-hz", type=float, metavar="HZ",
         help="sample rate of a table without a time column, Hz (default: estimated from position and velocity)",

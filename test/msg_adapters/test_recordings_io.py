@@ -283,6 +283,24 @@ def test_bag_errors_name_the_path_and_the_fix(tmp_path: Path) -> None:
         read_bag_recording(heads)
 
 
+@pytest.mark.parametrize("kind", BAG_KINDS)
+def test_a_bag_without_the_default_topic_is_read_on_its_only_joint_state_topic(tmp_path: Path, kind: str) -> None:
+    """/joint_states alone (a driver's, a joint_state_publisher's): read exactly, said in a note; with
+    a second joint-state topic beside it, which to read is asked, as for a topic asked for by name."""
+    states = joint_states(N)
+    path = write_reference_bag(bag_path(tmp_path, kind), kind, states, topic="/joint_states")
+    notes: list[str] = []
+    rec = read_bag_recording(path, note=notes.append)
+    assert notes == [f"{path}: no topic /robot/joint_states; its only joint-state topic, /joint_states, read"]
+    for got, want in zip((rec.q, rec.qd, rec.effort), columns(states, rec.joint_names)):
+        np.testing.assert_array_equal(got, want)
+    np.testing.assert_array_equal(rec.stamps_ns, states["stamps_ns"])
+    msgs = [(int(t), message(kind, t, BAXTER_JOINTS, p, v, e)) for t, p, v, e in zip(states["stamps_ns"], states["position"], states["velocity"], states["effort"])]
+    two = write_bag(bag_path(tmp_path, kind, "two"), kind, {"/joint_states": msgs, "/robot/limb/left/joint_states": msgs})
+    with pytest.raises(RecordingFileError, match=r"no topic /robot/joint_states; joint-state topics in this bag: /joint_states, /robot/limb/left/joint_states$"):
+        read_bag_recording(two)
+
+
 def test_a_topic_of_another_type_is_refused(tmp_path: Path) -> None:
     store = typestore(ros1=False)
     string = store.types["std_msgs/msg/String"](data="hello")
