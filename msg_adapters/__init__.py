@@ -15,6 +15,8 @@
 - :mod:`msg_adapters.topic_dumps` — joint states of a ROS topic dumped to text: ``rostopic echo -p``, bagpy, echoed messages;
 - :mod:`msg_adapters.array_files` — files of named arrays (MATLAB, NumPy .npz, HDF5) holding
   recordings, as robot-learning datasets publish them;
+- :mod:`msg_adapters.pointer_files` — the Git LFS and git-annex pointers a dataset's clone holds
+  where its files were not fetched, told for what they are;
 - :mod:`msg_adapters.recording_files` — which reader or writer a path calls for.
 
 Submodules are imported on demand (``from msg_adapters.bag_io import ...``): only
@@ -25,6 +27,6 @@ Submodules are imported on demand (``from msg_adapters.bag_io import ...``): onl
 from __future__ import annotations
 
 __all__ = [
-    "array_files", "bag_io", "csv_io", "dynamics_services", "joint_state", "mcap_writer", "recording_files", "topic_dumps", "serialized_joint_states",
+    "array_files", "bag_io", "csv_io", "dynamics_services", "joint_state", "mcap_writer", "pointer_files", "recording_files", "topic_dumps", "serialized_joint_states",
     "table_columns", "text_files",
 ]  # fmt: skip

@@ -34,6 +34,7 @@ from baxter_dynamics_ros.errors import RecordingError, RecordingFileError
 from .bag_io import DEFAULT_TOPIC, Progress, read_bag_recording, write_joint_state_bag, write_processed_bag
 from .csv_io import Note, joint_state_columns, read_table_recording, write_processed_table, write_table
 from .array_files import ARRAY_FILES, array_parts, read_array_recording, split_part
+from .pointer_files import pointer_file
 from .topic_dumps import is_topic_dump, read_topic_dump_recording
 from .text_files import COMPRESSION_SUFFIXES, TEXT_SUFFIXES, kind_suffix
 
@@ -79,6 +80,8 @@ def read_recording(
     path, part = split_part(path)
     kind = kind_suffix(path)
     try:
+        if (pointer := pointer_file(path)) is not None:
+            raise RecordingError(pointer)
         if kind in ARRAY_FILES:
             return read_array_recording(path, part, arm=arm, rate_hz=rate_hz, note=note)
         if kind in TABLE_SUFFIXES:
@@ -104,7 +107,7 @@ def recordings_in(path: str | os.PathLike[str], *, listed: bool = False) -> list
     read then says so). RecordingFileError for a file of arrays that cannot be read, or that a file
     named like one of its parts would hide."""
     path = Path(path)
-    if kind_suffix(path) not in ARRAY_FILES or not path.is_file():
+    if kind_suffix(path) not in ARRAY_FILES or not path.is_file() or pointer_file(path) is not None:
         return [path]
     parts = array_parts(path)
     if len(parts) <= 1:

@@ -49,6 +49,7 @@ def expand_inputs(paths: Sequence[Path]) -> list[Path]:
 def _recordings_at(path: Path, *, quiet: bool) -> list[Path]:
     """path itself, or for a folder that is no bag the recordings in it. quiet (a pattern's match):
     [] for a file of another kind or a folder without recordings, instead of path or an error."""
+    from msg_adapters.pointer_files import pointer_file
     from msg_adapters.recording_files import INPUT_KINDS, INPUT_SUFFIXES, is_bag_folder, recordings_in
     from msg_adapters.text_files import kind_suffix
 
@@ -58,7 +59,8 @@ def _recordings_at(path: Path, *, quiet: bool) -> list[Path]:
         return recordings_in(path, listed=quiet) if not quiet or kind_suffix(path) in INPUT_SUFFIXES else []
     if not path.is_dir():
         return [] if quiet else [path]
-    found = sorted(p for p in path.iterdir() if (p.is_file() and kind_suffix(p) in INPUT_SUFFIXES) or is_bag_folder(p))
+    # a git-annex link whose content was not fetched is listed too: its read says so
+    found = sorted(p for p in path.iterdir() if ((p.is_file() or pointer_file(p)) and kind_suffix(p) in INPUT_SUFFIXES) or is_bag_folder(p))
     found = [r for p in found for r in recordings_in(p, listed=True)]
     if not found and not quiet:
         raise RecordingFileError(f"{path}: a folder with no recording in it ({INPUT_KINDS}); give files, bag folders or a folder of them")

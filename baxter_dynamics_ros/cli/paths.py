@@ -15,11 +15,12 @@ def check_paths(inputs: Sequence[Path], outputs: Sequence[Path]) -> None:
     change an input (OutputError): the same path, a folder holding the input, or a path inside an
     input folder (a ROS 2 bag). ``--force`` never overrides this. What an output may otherwise be
     is :func:`~baxter_dynamics_ros.core.output_files.check_outputs`' to say."""
+    from msg_adapters.pointer_files import pointer_file
     from msg_adapters.recording_files import source_file
 
     for path in inputs:
         if not source_file(path).exists():
-            raise RecordingFileError(f"{path}: no such file or directory")
+            raise RecordingFileError(f"{path}: {pointer_file(source_file(path)) or 'no such file or directory'}")
     for out in outputs:
         target = out.resolve()
         for path in inputs:
