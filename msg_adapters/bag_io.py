@@ -28,7 +28,7 @@ from rosbags.highlevel import AnyReader
 from baxter_dynamics_ros.core.joints import ARM_SIDES, arm_joint_names
 from baxter_dynamics_ros.core.plausibility import plausible_recording
 from baxter_dynamics_ros.core.recording import (
-    JUMP_GAP_PERIODS, OtherArm, ProcessedRecording, Recording, detect_arm, require_activity, summed_range_rad, taken_apart,
+    JUMP_GAP_PERIODS, MAX_BACK_SHARE, OtherArm, ProcessedRecording, Recording, detect_arm, require_activity, summed_range_rad, taken_apart,
     velocity_from_positions,
 )  # fmt: skip
 from baxter_dynamics_ros.core.samples import SkipReason
@@ -230,7 +230,7 @@ def joint_state_recording(
     if not stamps_ns.any():
         stamps_ns = data.log_times_ns[index[order]]
     stamps_ns, back = taken_apart(stamps_ns)
-    if back.size > 0.5 * (len(stamps_ns) - 1):
+    if back.size > MAX_BACK_SHARE * (len(stamps_ns) - 1):
         raise RecordingFileError(f"{path}: the stamps of the messages {where} go back at {back.size} of {len(stamps_ns) - 1} steps: no time series")
     if back.size and note is not None:
         note(

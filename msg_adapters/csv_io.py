@@ -65,7 +65,7 @@ import numpy as np
 from baxter_dynamics_ros.core.joints import ARM_SIDES, JOINT_SUFFIXES
 from baxter_dynamics_ros.core.plausibility import package_bounds, plausible_recording, screen_samples
 from baxter_dynamics_ros.core.recording import (
-    JUMP_GAP_PERIODS, OtherArm, ProcessedRecording, Recording, detect_arm, estimate_rate_hz, jumps, require_activity, summed_range_rad,
+    JUMP_GAP_PERIODS, MAX_BACK_SHARE, OtherArm, ProcessedRecording, Recording, detect_arm, estimate_rate_hz, jumps, require_activity, summed_range_rad,
     taken_apart, velocity_from_positions,
 )  # fmt: skip
 from baxter_dynamics_ros.errors import RecordingFileError
@@ -351,7 +351,7 @@ def _laid_end_to_end(path: Path, name: str, stamps: np.ndarray, note: Note | Non
     moved, back = taken_apart(stamps)
     if not back.size:
         return moved
-    if back.size > 0.5 * (len(stamps) - 1):
+    if back.size > MAX_BACK_SHARE * (len(stamps) - 1):
         raise RecordingFileError(f"{path}: the time column {name} goes back at {back.size} of {len(stamps) - 1} steps: the rows are no time series")
     if note is not None:
         note(

@@ -53,9 +53,9 @@ _QUANTITY_OF = {word: quantity for quantity, words in _QUANTITY_WORDS.items() fo
 #: Position words that a velocity word or ``dot`` after them makes a velocity (``theta_dot``, ``q_vel``, ``ang_vel``).
 _ANGLE_WORDS = frozenset({"q", "theta", "ang", "angle"})
 _SIDE_OF = {"left": "left", "l": "left", "right": "right", "r": "right"}
-_NEUTRAL = frozenset({"joint", "joints", "j", "jnt", "angular", "state", "states", "measured", "meas", "actual"})
 #: Words that, with an index after them (``joint1``, ``j1``), give the joint's index and nothing else.
 _INDEX_WORDS = frozenset({"joint", "j", "jnt"})
+_NEUTRAL = _INDEX_WORDS | {"joints", "angular", "state", "states", "measured", "meas", "actual"}
 #: Unit words that leave SI values as they are (rad, rad/s, N·m), and the degree's.
 _SI_UNITS = frozenset({"rad", "rads", "s", "sec", "nm", "n", "m"})
 _DEGREE_UNITS = frozenset({"deg", "degs", "degree", "degrees", "°"})

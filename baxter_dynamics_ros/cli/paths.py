@@ -19,8 +19,8 @@ def check_paths(inputs: Sequence[Path], outputs: Sequence[Path]) -> None:
     from msg_adapters.recording_files import source_file
 
     for path in inputs:
-        if not source_file(path).exists():
-            raise RecordingFileError(f"{path}: {pointer_file(source_file(path)) or 'no such file or directory'}")
+        if not (source := source_file(path)).exists():
+            raise RecordingFileError(f"{path}: {pointer_file(source) or 'no such file or directory'}")
     for out in outputs:
         target = out.resolve()
         for path in inputs:

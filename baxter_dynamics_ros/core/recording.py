@@ -21,6 +21,7 @@ __all__ = [
     "GAP_JITTER_SDS",
     "GAP_PERIODS",
     "JUMP_GAP_PERIODS",
+    "MAX_BACK_SHARE",
     "MIN_MOTION_RAD",
     "MIN_FIT_S",
     "MIN_RECORDING_S",
@@ -66,6 +67,9 @@ GAP_JITTER_SDS = 6.0
 #: The step given to a jump (:func:`jumps`) in the stamps of samples without times: a gap of this
 #: many sample periods (any length above :data:`GAP_PERIODS` cuts the recording there).
 JUMP_GAP_PERIODS = 10
+#: Stamps that go back at more than this share of their steps are no time series (:func:`taken_apart`
+#: takes apart only runs laid end to end): the readers refuse them.
+MAX_BACK_SHARE = 0.5
 #: The least data a fit takes in all (the diagnosis' training recordings, a calibration's), s.
 MIN_FIT_S = 10.0
 
