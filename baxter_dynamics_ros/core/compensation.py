@@ -10,7 +10,9 @@ node uses in place of the rigid body:
   computed from q, q̇ and the estimated q̈ of the same sample;
 - ``delay`` and ``acceleration_noise`` describe the recording, not the arm: the node does not
   compensate them (its own causal estimator filters q̇; a delayed effort would need the future
-  state), and says so in its log.
+  state), and says so in its log;
+- ``dahl_friction`` depends on each joint's motion since its last reversal, a history this
+  sample-by-sample model does not keep: not compensated live either, and said so in the log.
 """
 
 from __future__ import annotations
@@ -28,8 +30,9 @@ from .plausibility import PLAUSIBLE_FACTOR, first_beyond_plausible_effort
 
 __all__ = ["NOT_COMPENSATED", "PLAUSIBILITY_STATES", "PLAUSIBLE_QDD_RAD_S2", "Compensation", "load_compensation", "require_plausible"]
 
-#: Effects of a recording that a live, causal model cannot undo.
-NOT_COMPENSATED = ("delay", "acceleration_noise")
+#: Effects that this sample-by-sample model does not undo: a recording's (``delay``,
+#: ``acceleration_noise``) and one that needs the motion's history (``dahl_friction``).
+NOT_COMPENSATED = ("delay", "acceleration_noise", "dahl_friction")
 
 
 class Compensation:

@@ -40,7 +40,7 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
-from numba import vectorize
+from numba import njit, vectorize
 
 from ..errors import EffectSpecError
 from . import lagrange_euler
@@ -55,6 +55,7 @@ __all__ = [
     "AccelerationNoise",
     "Armature",
     "CoulombFriction",
+    "DahlFriction",
     "Delay",
     "Effect",
     "InertialChange",
@@ -86,6 +87,24 @@ def friction_law(qd, coulomb_nm, static_nm, stribeck_rad_s, smoothing_rad_s):
     """
     bump = (static_nm - coulomb_nm) * np.exp(-((qd / stribeck_rad_s) ** 2))
     return (coulomb_nm + bump) * np.tanh(qd / smoothing_rad_s)
+
+
+@njit(cache=True)
+def presliding_state(qd, stamps_s, presliding_rad):
+    """Dahl's friction state z (n, 7) in [−1, 1] along a time series: after each reversal z moves
+    towards sign(Δθ) as 1 − exp(−|Δθ|/θ_p) of the angle Δθ turned since, exactly for a monotone
+    step; Δθ of a step the trapezoid of q̇ (n, 7) rad/s over stamps_s (n,) s; z = 0 at the start."""
+    n, joints = qd.shape
+    z = np.zeros((n, joints))
+    for j in range(joints):
+        state = 0.0
+        for k in range(1, n):
+            step = 0.5 * (qd[k, j] + qd[k - 1, j]) * (stamps_s[k] - stamps_s[k - 1])
+            if step != 0.0:
+                target = 1.0 if step > 0.0 else -1.0
+                state = target + (state - target) * np.exp(-abs(step) / presliding_rad)
+            z[k, j] = state
+    return z
 
 
 @vectorize(["float64(float64, float64, float64, float64, float64)"], cache=True)
@@ -358,6 +377,40 @@ class StribeckFriction(Effect):
 
     def parameter_names(self):
         return _joint_labels("coulomb_nm") + _joint_labels("static_nm")
+
+
+@dataclass(frozen=True, eq=False)
+class DahlFriction(Effect):
+    """Friction with presliding hysteresis (Dahl's model): torque = friction_nm (7,) ⊙ z, N·m, z the
+    state of :func:`presliding_state`, which after each reversal of a joint builds up from the
+    opposite sign over a presliding angle presliding_rad θ_p (rad) instead of switching at once.
+
+    Coulomb friction is its limit θ_p → 0. Over small oscillations (amplitude below θ_p) it acts as
+    a stiffness F/θ_p in phase with the displacement: seen at one frequency, a negative armature.
+    Needs a time series (stamps_s); linear in friction_nm for a fixed θ_p.
+    """
+
+    name: ClassVar[str] = "dahl_friction"
+    friction_nm: np.ndarray = _param("joint", minimum=0.0)
+    presliding_rad: float = _param("scalar", 0.02, minimum=0.0, strict=True)
+
+    def state(self, qd: np.ndarray, stamps_s: np.ndarray | None) -> np.ndarray:
+        """(N, 7) the friction state z along a time series q̇ (N, 7) rad/s at stamps_s (N,) s."""
+        qd = np.asarray(qd, dtype=np.float64)
+        t = _series(stamps_s, qd, self.name)
+        return presliding_state(np.ascontiguousarray(qd), t, self.presliding_rad)
+
+    def torque(self, arm, q, qd, qdd, *, stamps_s=None):
+        return self.state(qd, stamps_s) * self.friction_nm
+
+    def regressor(self, arm, q, qd, qdd, *, stamps_s=None):
+        return _diagonal(self.state(qd, stamps_s))
+
+    def parameter_vector(self, arm):
+        return self.friction_nm.copy()
+
+    def parameter_names(self):
+        return _joint_labels("friction_nm")
 
 
 @dataclass(frozen=True, eq=False)
@@ -644,6 +697,7 @@ EFFECTS: dict[str, type[Effect]] = {
         ViscousFriction,
         CoulombFriction,
         StribeckFriction,
+        DahlFriction,
         S1Spring,
         Payload,
         InertialError,

@@ -45,8 +45,11 @@ class Scoring:
         return np.sqrt(np.maximum(self.test_sse(model, self.fitter.fit(model)), 0.0) / self.test.samples)
 
 
-#: Above this many selected physical effects, Shapley shares are estimated from random orders.
-EXACT_SHAPLEY_MAX = 8
+#: Above this many selected physical effects, Shapley shares are estimated from random orders. Two
+#: effects that can stand in for each other (inertial_error and the s1 spring) split their common
+#: share, and 64 orders do not order them reliably: with 9 effects on a real rotation (test
+#: sin_XYZ_12s) they put inertial_error's 208 N·m² before the spring's 207; exactly: 191 and 225.
+EXACT_SHAPLEY_MAX = 10
 SHAPLEY_ORDERS = 64
 
 

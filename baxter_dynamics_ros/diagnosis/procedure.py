@@ -45,6 +45,7 @@ from ..core.effects import (
     EFFECTS,
     Armature,
     CoulombFriction,
+    DahlFriction,
     Delay,
     Effect,
     InertialError,
@@ -96,6 +97,8 @@ def _effect_of(cand: Candidate, values: np.ndarray, phi: np.ndarray | None) -> E
         return CoulombFriction(friction_nm=values, smoothing_rad_s=t.smoothing_rad_s)
     if isinstance(t, StribeckFriction):
         return StribeckFriction(coulomb_nm=values[:N], static_nm=values[N:], stribeck_rad_s=t.stribeck_rad_s, smoothing_rad_s=t.smoothing_rad_s)
+    if isinstance(t, DahlFriction):
+        return DahlFriction(friction_nm=values, presliding_rad=t.presliding_rad)
     if isinstance(t, Armature):
         return Armature(inertia_kgm2=values)
     if isinstance(t, Delay):

@@ -19,9 +19,10 @@ Moves, each accepted only if it lowers S (all compared under the same weights):
   ``MIN_JOINT_GAIN`` and ``MIN_JOINT_GAIN_NM``, and whose parameters differ from zero by more than
   their uncertainty;
 - after each addition, **remove** a selected effect, or one joint of a per-joint effect, and
-  **replace** an effect by its rival (``RIVALS``: ``payload`` ⇄ ``inertial_error``,
-  ``coulomb_friction`` ⇄ ``stribeck_friction`` at the same joints, any variant; ``s1_spring`` ⇄ the
-  offset at s1), until no such move lowers S; the richer of two rivals must win by the folds'
+  **replace** an effect by its rival (``RIVALS``: ``payload`` ⇄ ``inertial_error``; any two of
+  the friction laws ``coulomb_friction``, ``stribeck_friction``, ``dahl_friction``, any variant, at
+  the same joints or at one of them — which law fits a joint is that joint's question; ``s1_spring``
+  ⇄ the offset at s1), until no such move lowers S; the richer of two rivals must win by the folds'
   uncertainty. A per-joint family member never enters beside another at the same joint; a payload
   may enter beside inertial_error (or the reverse) if it wins by that uncertainty too: bounded to
   their physical ranges they are not nested (``FAMILIES``).
@@ -65,6 +66,8 @@ SIGMA2_FLOOR = 1e-6
 RIVALS: dict[frozenset[str], str] = {
     frozenset({"payload", "inertial_error"}): "motion that loads the inner links in other ways than the hand does (each joint over its range, with accelerations)",
     frozenset({"coulomb_friction", "stribeck_friction"}): "slow motion through velocity reversals, below the Stribeck velocities",
+    frozenset({"coulomb_friction", "dahl_friction"}): "reversals of amplitudes below and above the presliding angle (Dahl's friction builds up over that angle, Coulomb's at once)",
+    frozenset({"stribeck_friction", "dahl_friction"}): "reversals at several speeds and amplitudes (Stribeck's friction depends on the speed, Dahl's on the angle turned since the reversal)",
     frozenset({"s1_spring", "torque_offset"}): "motion that spans s1's range (the spring's torque changes with q_s1, an offset's does not)",
 }
 #: Effects of different kinds (a sensor's and the arm's) that can explain the same torque on some
@@ -409,9 +412,11 @@ class _Search:
                 if present.get(other.name, index) != index or (other.kind != "joint" and other.name in present):
                     continue  # that effect is in the model with another variant, or acts beside this one
                 swapped = self.in_place_of(model, t, index)
-                if swapped is None:
-                    continue
-                yield f"replace {cand.label} by {other.label}", self.evaluate(swapped)
+                if swapped is not None:
+                    yield f"replace {cand.label} by {other.label}", self.evaluate(swapped)
+                if cand.kind == "joint" and other.kind == "joint" and len(t.joints) > 1:
+                    for j in t.joints:
+                        yield f"replace {cand.label} by {other.label} at {self._joint_names([j])}", self.evaluate(self.at_joint_in_place_of(model, t, j, index))
 
     def in_place_of(self, model: Model, term: Term, index: int) -> Model | None:
         """The model with candidate ``index`` in the place of ``term``: a family member at the
@@ -429,6 +434,14 @@ class _Search:
         else:
             joints = self._touched(index)
         return Model.of([s for s in model.terms if s.candidate != term.candidate] + [Term(index, joints)]) if joints else None
+
+    def at_joint_in_place_of(self, model: Model, term: Term, joint: int, index: int) -> Model:
+        """The model with per-joint candidate ``index`` in the place of per-joint ``term`` at one of
+        its joints: which member of a family fits a joint is that joint's question."""
+        have = model.term(index)
+        joints = tuple(sorted((have.joints if have else ()) + (joint,)))
+        rest = [s for s in model.terms if s.candidate not in (term.candidate, index)]
+        return Model.of(rest + [Term(term.candidate, tuple(k for k in term.joints if k != joint)), Term(index, joints)])
 
     def _touched(self, index: int) -> tuple[int, ...]:
         """The joints a whole-effect candidate can act on."""

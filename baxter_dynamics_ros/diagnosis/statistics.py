@@ -1,7 +1,7 @@
 """The diagnosis' data side: candidate effects as regressor columns, and sufficient statistics.
 
 Every candidate effect except ``acceleration_noise`` is linear in its parameters θ for fixed shape
-parameters (friction velocity scales): its share of the effort is Φ θ with Φ = ``effect.regressor``.
+parameters (friction velocity scales, Dahl's presliding angle): its share of the effort is Φ θ with Φ = ``effect.regressor``.
 Shape parameters take a few values; each is a *variant* of its effect. All candidates' columns sit
 side by side in one layout (:class:`ColumnLayout`); ``payload`` shares link 7's columns of
 ``inertial_error`` (they are the same regressor, and the two never enter one model).
@@ -14,7 +14,9 @@ its own cut-off), plus r_jᵀ r_j of
 the raw world (the paper's first difference of q̇) for the ``acceleration_noise`` share. Friction's
 columns take q̇ through the same low-pass: friction acts on the true speed, and the measured q̇'s
 noise flips the sign of a Coulomb column around every reversal, which biases its coefficient towards
-zero (errors in variables; on the other unit's 525 Hz data held-out e0 0.524 → 0.331 N·m). The squared
+zero (errors in variables; on the other unit's 525 Hz data held-out e0 0.524 → 0.331 N·m). Dahl's
+friction state, which needs each recording's whole history, is computed once per recording from the
+same low-passed q̇ (:attr:`Prepared.dahl_states`). The squared
 error of any fit x on any block is then exact: r·r − 2 x·b + xᵀ H x.
 """
 
@@ -30,6 +32,7 @@ from ..core.arm_model import ArmModel
 from ..core.effects import (
     Armature,
     CoulombFriction,
+    DahlFriction,
     Delay,
     Effect,
     InertialError,
@@ -79,7 +82,9 @@ _FRICTION = (ViscousFriction, CoulombFriction, StribeckFriction)
 #: per-joint family has at most one member at a joint; payload and inertial_error may act together:
 #: bounded, they are not nested (a gripper of kilograms at the flange is no change of link 7 within
 #: 50–150 % of its 0.54 kg, and an error of the arm's own links no load in its hand).
-FAMILIES = (frozenset({"payload", "inertial_error"}), frozenset({"coulomb_friction", "stribeck_friction"}))
+FAMILIES = (frozenset({"payload", "inertial_error"}), frozenset({"coulomb_friction", "stribeck_friction", "dahl_friction"}))
+#: Presliding angles θ_p (rad) of dahl_friction's variants.
+DAHL_PRESLIDING_RAD = (0.02, 0.05)
 #: Per-joint effects the s1 spring spans at s1: its preload is an offset, and its cosine and sine
 #: carry the shape of s1's gravity load, which a torque gain scales. With the spring in a model
 #: neither acts at s1 (on the other unit's recordings a gain at s1 took the spring's share over one
@@ -172,6 +177,8 @@ def column_layout() -> ColumnLayout:
         specs.append(("coulomb_friction", f"smoothing {eps:g} rad/s", "joint", CoulombFriction(friction_nm=0.0, smoothing_rad_s=eps), 1))
     for vs in (0.02, 0.05, 0.1, 0.2):
         specs.append(("stribeck_friction", f"v_s {vs:g} rad/s", "joint", StribeckFriction(coulomb_nm=0.0, static_nm=0.0, stribeck_rad_s=vs), 2))
+    for angle in DAHL_PRESLIDING_RAD:
+        specs.append(("dahl_friction", f"presliding {angle:g} rad", "joint", DahlFriction(friction_nm=0.0, presliding_rad=angle), 1))
     specs.append(("s1_spring", None, "linear", S1Spring(), 4))
     specs.append(("inertial_error", None, "inertial", InertialError(), 70))
     specs.append(("armature", None, "joint", Armature(inertia_kgm2=0.0), 1))
@@ -223,6 +230,7 @@ class Prepared:
     residual_raw: np.ndarray  # (n, 7) N·m, effort − τ_rigid with the first difference of q̇
     delay_columns: np.ndarray  # (n, 7) −dτ_rigid/dt, N·m/s
     stamps_s: np.ndarray  # (n,) s
+    dahl_states: dict[float, np.ndarray]  # presliding angle -> (n, 7) Dahl's friction state of the low-passed q̇
 
     def joints_by_cutoff(self) -> list[tuple[float, np.ndarray]]:
         """(cut-off, the joints at it) per distinct cut-off, ascending."""
@@ -249,19 +257,27 @@ def prepare(arm: ArmModel, rec: Recording, cutoffs_hz: Sequence[float]) -> Prepa
     delay_columns = np.gradient(tau, stamps, axis=0)
     np.negative(delay_columns, out=delay_columns)
     residual_raw = rec.effort - arm.inverse_dynamics(rec.q, rec.qd, first_difference(rec.qd, stamps))
+    friction_qd = np.empty_like(rec.qd)
+    for c, joints in _joints_by_cutoff(cutoffs):
+        friction_qd[:, joints] = qd_lowpassed[c][:, joints]
+    dahl_states = {a: DahlFriction(friction_nm=0.0, presliding_rad=a).state(friction_qd, stamps) for a in DAHL_PRESLIDING_RAD}
     return Prepared(
         q=rec.q, qd=rec.qd, cutoffs_hz=cutoffs, qd_lowpassed=qd_lowpassed, qdd=qdd, rigid_torque=tau, residual=residual,
-        residual_raw=residual_raw, delay_columns=delay_columns, stamps_s=stamps,
+        residual_raw=residual_raw, delay_columns=delay_columns, stamps_s=stamps, dahl_states=dahl_states,
     )  # fmt: skip
 
 
 def _block_parts(arm: ArmModel, template: Effect, width: int, p: Prepared, lo: int, hi: int) -> list[tuple[np.ndarray, np.ndarray]]:
     """One column block of the layout on samples lo:hi (denoised world), as (joints, (hi − lo, 7, width))
     pairs: the block's rows at those joints are the array's there; the joints of all pairs are the 7."""
-    if isinstance(template, (Delay, TorqueGain)):
+    if isinstance(template, (Delay, TorqueGain, DahlFriction)):
         out = np.zeros((hi - lo, N, width))
         idx = np.arange(N)
-        out[:, idx, idx] = (p.delay_columns if isinstance(template, Delay) else p.rigid_torque)[lo:hi]
+        if isinstance(template, DahlFriction):
+            columns = p.dahl_states[template.presliding_rad]
+        else:
+            columns = p.delay_columns if isinstance(template, Delay) else p.rigid_torque
+        out[:, idx, idx] = columns[lo:hi]
         return [(idx, out)]
     parts = []
     for c, joints in p.joints_by_cutoff():
@@ -324,7 +340,7 @@ def active_columns(arm: ArmModel, layout: ColumnLayout) -> list[np.ndarray]:
     ones = np.ones((32, N))
     probe = Prepared(
         q=q, qd=qd, cutoffs_hz=(1.0,) * N, qd_lowpassed={1.0: qd}, qdd={1.0: qdd}, rigid_torque=ones, residual=qdd,
-        residual_raw=qdd, delay_columns=ones, stamps_s=np.arange(32) * 0.01,
+        residual_raw=qdd, delay_columns=ones, stamps_s=np.arange(32) * 0.01, dahl_states=dict.fromkeys(DAHL_PRESLIDING_RAD, ones),
     )  # fmt: skip
     phi = regressor(arm, layout, probe, 0, 32)
     return [np.flatnonzero(np.any(phi[:, j, :] != 0.0, axis=0)) for j in range(N)]

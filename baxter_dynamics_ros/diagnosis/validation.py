@@ -91,7 +91,7 @@ class Scenario:
     def physics_rate_hz(self) -> float | None:
         """Friction's steep slope at q̇ = 0 on the light wrist needs a finer RK4 step than 1 kHz."""
         names = set(self.effects) | {n for d in self.per_recording for n in d}
-        return 4000.0 if {"coulomb_friction", "stribeck_friction"} & names else None
+        return 4000.0 if {"coulomb_friction", "stribeck_friction", "dahl_friction"} & names else None
 
     @property
     def injected(self) -> tuple[str, ...]:
@@ -120,6 +120,7 @@ _SINGLE: dict[str, Callable[[float], dict[str, Any]]] = {
         "stribeck_rad_s": 0.07,
         "smoothing_rad_s": 0.03,
     },
+    "dahl_friction": lambda scale: {"friction_nm": _joint([0.3, 0.9, 0.3, 0.3, 0.08, 0.05, 0.03], scale), "presliding_rad": 0.02},
     "s1_spring": lambda scale: {"preload_nm": 25.0 * scale / 3, "cosine_nm": 5.0 * scale / 3, "sine_nm": 20.0 * scale / 3},
     "payload": lambda scale: {"mass_kg": 0.8 * scale, "com_m": [0.0, 0.02, 0.06]},
     "inertial_error": lambda scale: _grown_links(1 + 0.1 * scale),

@@ -6,8 +6,10 @@ physical effects of a :class:`SimulationSpec` acting on it:
     (M_true(q) + diag(armature)) q̈ = τ_act − C_true(q, q̇) − G_true(q) − τ_friction(q̇) − τ_spring_share(q_s1)
 
 M_true, C_true, G_true use the arm's pseudo-inertias plus the changes of ``payload`` and
-``inertial_error``; τ_friction sums ``viscous_friction``, ``coulomb_friction`` and
-``stribeck_friction``; the spring's share is :class:`~baxter_dynamics_ros.core.effects.S1Spring`'s
+``inertial_error``; τ_friction sums ``viscous_friction``, ``coulomb_friction``,
+``stribeck_friction`` and ``dahl_friction`` (F ⊙ z, its state z integrated with the motion:
+ż = (q̇ − z |q̇|) / θ_p, the rate of :func:`~baxter_dynamics_ros.core.effects.presliding_state`'s
+exact step, z = 0 at the start of the settling); the spring's share is :class:`~baxter_dynamics_ros.core.effects.S1Spring`'s
 (the spring carries part of the weight, so the actuators transmit less). Integration: fixed-step
 RK4 at ``physics_rate_hz`` (default: the smallest multiple of the recording rate ≥ 1 kHz), τ_act
 held over each step.
@@ -49,6 +51,7 @@ from ..core.arm_model import ArmModel, load_arm_model
 from ..core.effects import (
     Armature,
     CoulombFriction,
+    DahlFriction,
     Delay,
     InertialChange,
     S1Spring,
@@ -115,6 +118,13 @@ def _acceleration(dh, J, g, armature, viscous, friction, spring, q, qd, tau, out
 
 
 @njit(cache=True)
+def _presliding_rate(qd, z, angle, out):
+    """Dahl's ż = (q̇ − z |q̇|) / θ_p, 1/s, into out (7,); qd, z (7,)."""
+    for j in range(N):
+        out[j] = (qd[j] - z[j] * abs(qd[j])) / angle
+
+
+@njit(cache=True)
 def _reference(ref_q, ref_qd, ref_dt, t, q_out, qd_out):
     """Cubic Hermite interpolation of the reference at t ≥ 0 s (held at its start for t < 0)."""
     if t <= 0.0:
@@ -155,7 +165,7 @@ def _external_torque(dh, coll_time, coll_force, coll_torque, t, q, pose, jac, ou
 
 @njit(cache=True)
 def _run(
-    dh, j_true, j_nominal, g, armature, viscous, friction, spring,
+    dh, j_true, j_nominal, g, armature, viscous, friction, spring, dahl_nm, dahl_rad,
     kp, kd, bandwidth, tau_limit, ref_q, ref_qd, ref_dt, q_init, dt, n_settle, every, delay_steps,
     coll_time, coll_force, coll_torque,
     out_q, out_qd, out_qdd, out_tau, out_tau_late, out_qref, out_ext,
@@ -180,6 +190,9 @@ def _run(
     ext = np.zeros((1, N))
     plant_tau = np.empty((1, N))
     pose, jac = np.empty((1, 4, 4)), np.empty((1, 6, N))
+    z = np.zeros(N)  # Dahl's friction state
+    z1, z2, z3, z4 = np.empty(N), np.empty(N), np.empty(N), np.empty(N)
+    stage = np.empty((1, N))
     for step in range(total):
         t = (step - n_settle) * dt
         _reference(ref_q, ref_qd, ref_dt, t, qr, qdr)
@@ -206,7 +219,9 @@ def _run(
             _external_torque(dh, coll_time, coll_force, coll_torque, t, q, pose, jac, ext[0])
             plant_tau[0] = tau[0] + ext[0]
             act = plant_tau
-        _acceleration(dh, j_true, g, armature, viscous, friction, spring, q, qd, act, a1)
+        stage[0] = act[0] - dahl_nm * z
+        _presliding_rate(qd[0], z, dahl_rad, z1)
+        _acceleration(dh, j_true, g, armature, viscous, friction, spring, q, qd, stage, a1)
         if step >= n_settle and (step - n_settle) % every == 0:
             k = (step - n_settle) // every
             out_q[k] = q[0]
@@ -220,14 +235,21 @@ def _run(
                 i0 = int(np.floor(s))
                 frac = s - i0
                 out_tau_late[k, j] = (1.0 - frac) * ring[i0 % ring_len, j] + frac * ring[(i0 + 1) % ring_len, j]
+        stage[0] = act[0] - dahl_nm * (z + 0.5 * dt * z1)
+        _presliding_rate(qd[0] + 0.5 * dt * a1[0], z + 0.5 * dt * z1, dahl_rad, z2)
         _acceleration(dh, j_true, g, armature, viscous, friction, spring,
-                      q + 0.5 * dt * qd, qd + 0.5 * dt * a1, act, a2)  # fmt: skip
+                      q + 0.5 * dt * qd, qd + 0.5 * dt * a1, stage, a2)  # fmt: skip
+        stage[0] = act[0] - dahl_nm * (z + 0.5 * dt * z2)
+        _presliding_rate(qd[0] + 0.5 * dt * a2[0], z + 0.5 * dt * z2, dahl_rad, z3)
         _acceleration(dh, j_true, g, armature, viscous, friction, spring,
-                      q + 0.5 * dt * qd + 0.25 * dt * dt * a1, qd + 0.5 * dt * a2, act, a3)  # fmt: skip
+                      q + 0.5 * dt * qd + 0.25 * dt * dt * a1, qd + 0.5 * dt * a2, stage, a3)  # fmt: skip
+        stage[0] = act[0] - dahl_nm * (z + dt * z3)
+        _presliding_rate(qd[0] + dt * a3[0], z + dt * z3, dahl_rad, z4)
         _acceleration(dh, j_true, g, armature, viscous, friction, spring,
-                      q + dt * qd + 0.5 * dt * dt * a2, qd + dt * a3, act, a4)  # fmt: skip
+                      q + dt * qd + 0.5 * dt * dt * a2, qd + dt * a3, stage, a4)  # fmt: skip
         q = q + dt * qd + dt * dt / 6.0 * (a1 + a2 + a3)
         qd = qd + dt / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+        z = np.minimum(np.maximum(z + dt / 6.0 * (z1 + 2.0 * z2 + 2.0 * z3 + z4), -1.0), 1.0)
         if not np.all(np.isfinite(qd)):
             return step, saturated
     return -1, saturated
@@ -259,6 +281,8 @@ class _Plant(NamedTuple):
     viscous: np.ndarray
     friction: np.ndarray
     spring: np.ndarray
+    dahl_nm: np.ndarray  # (7,) Dahl's friction F, N·m (zeros when off)
+    dahl_rad: float  # its presliding angle θ_p, rad (1 when off: harmless)
 
 
 def _plant(arm: ArmModel, spec: SimulationSpec) -> _Plant:
@@ -283,12 +307,15 @@ def _plant(arm: ArmModel, spec: SimulationSpec) -> _Plant:
             np.full(N, stribeck.smoothing_rad_s),
         ]
     spring = spec.effect(S1Spring)
+    dahl = spec.effect(DahlFriction)
     return _Plant(
         j_true,
         np.zeros(N) if armature is None else armature.inertia_kgm2.copy(),
         np.zeros(N) if viscous is None else viscous.damping_nm_s_rad.copy(),
         friction,
         np.zeros(4) if spring is None else spring.parameter_vector(arm),
+        np.zeros(N) if dahl is None else dahl.friction_nm.copy(),
+        1.0 if dahl is None else dahl.presliding_rad,
     )
 
 
@@ -297,6 +324,8 @@ def _check_stability(arm: ArmModel, plant: _Plant, bandwidth: float, reference: 
 
     The fastest rate is ω_v + the largest eigenvalue of M⁻¹ D, D the friction slopes at q̇ = 0,
     on postures sampled every 0.5 s; RK4 and the sampled loop need λ·Δt < :data:`STABILITY_LIMIT`.
+    Dahl's friction adds the presliding spring's frequency √λ_max(M⁻¹ F/θ_p) and its state's rate
+    1.5 max|q̇_ref| / θ_p, each held to the same limit.
     """
     from scipy.linalg import eigh
 
@@ -314,6 +343,18 @@ def _check_stability(arm: ArmModel, plant: _Plant, bandwidth: float, reference: 
             f"{inertia[j]:.3g} kg·m² (and the controller's {bandwidth:g} rad/s); raise smoothing_rad_s, lower the "
             f"friction, or raise physics_rate_hz above {rates[worst] / STABILITY_LIMIT:.0f} Hz"
         )
+    if np.any(plant.dahl_nm > 0.0):
+        # Within its presliding angle Dahl's friction is a spring F/θ_p; its state moves at |q̇|/θ_p.
+        stiffness = np.diag(plant.dahl_nm / plant.dahl_rad)
+        rate = max(
+            max(float(np.sqrt(max(eigh(stiffness, m, eigvals_only=True)[-1], 0.0))) for m in masses),
+            1.5 * float(np.abs(reference.qd).max()) / plant.dahl_rad,
+        )
+        if rate * dt_s > STABILITY_LIMIT:
+            raise SimulationError(
+                f"dahl_friction is too stiff for a {dt_s * 1e3:g} ms step (presliding angle {plant.dahl_rad:g} rad): raise "
+                f"presliding_rad, lower the friction, or raise physics_rate_hz above {rate / STABILITY_LIMIT:.0f} Hz"
+            )
 
 
 def simulate(spec: SimulationSpec, arm: ArmModel | None = None, reference: JointReference | None = None) -> SimulationResult:
@@ -340,7 +381,7 @@ def simulate(spec: SimulationSpec, arm: ArmModel | None = None, reference: Joint
     coll_time, coll_force, coll_torque = _collision_arrays(spec.collisions)
     failed, saturated = _run(
         np.ascontiguousarray(arm.dh), plant.j_true, np.ascontiguousarray(arm.pseudo_inertias), np.array(arm.gravity_m_s2),
-        plant.armature, plant.viscous, plant.friction, plant.spring,
+        plant.armature, plant.viscous, plant.friction, plant.spring, plant.dahl_nm, plant.dahl_rad,
         gains.outer_kp_1_s, gains.outer_kd, gains.inner_bandwidth_rad_s, np.array(arm.effort_limit_nm), np.ascontiguousarray(reference.q), np.ascontiguousarray(reference.qd),
         reference.dt_s, q_init, dt, int(round(spec.settle_s / dt)), every, delay_steps,
         coll_time, coll_force, coll_torque,

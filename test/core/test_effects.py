@@ -16,6 +16,7 @@ from baxter_dynamics_ros.core.effects import (
     AccelerationNoise,
     Armature,
     CoulombFriction,
+    DahlFriction,
     Delay,
     InertialError,
     Payload,
@@ -33,6 +34,7 @@ ALL = {
     "viscous_friction": {"damping_nm_s_rad": 0.5},
     "coulomb_friction": {"friction_nm": [0.6, 0.6, 0.4, 0.4, 0.08, 0.08, 0.03], "smoothing_rad_s": 0.05},
     "stribeck_friction": {"coulomb_nm": 0.4, "static_nm": 0.7},
+    "dahl_friction": {"friction_nm": [0.3, 0.9, 0.3, 0.3, 0.08, 0.05, 0.03], "presliding_rad": 0.02},
     "s1_spring": {},
     "payload": {"mass_kg": 1.0, "com_m": [0.01, 0.0, 0.08], "size_m": [0.08, 0.05, 0.1]},
     "inertial_error": {"mass_scale": {"s1": 1.2, "e1": 0.9}, "com_scale": {"e0": 1.3}},
@@ -66,7 +68,7 @@ def smooth_series(arm: ArmModel, n: int = 400, rate_hz: float = 100.0, noise_rad
 
 def test_the_library_has_exactly_the_diagnosis_names() -> None:
     assert list(EFFECTS) == [
-        "torque_offset", "viscous_friction", "coulomb_friction", "stribeck_friction", "s1_spring",
+        "torque_offset", "viscous_friction", "coulomb_friction", "stribeck_friction", "dahl_friction", "s1_spring",
         "payload", "inertial_error", "armature", "delay", "torque_gain", "acceleration_noise",
     ]  # fmt: skip
     assert [e.name for e in effects_from_dict(ALL)] == list(EFFECTS)
@@ -110,6 +112,34 @@ def test_stribeck_breakaway_and_coulomb_limit(arm: ArmModel) -> None:
     same = StribeckFriction(coulomb_nm=0.4, static_nm=0.4, smoothing_rad_s=0.05)
     _, q, qd, qdd = smooth_series(arm)
     np.testing.assert_allclose(same.torque(arm, q, qd, qdd), CoulombFriction(0.4, 0.05).torque(arm, q, qd, qdd), atol=1e-15)
+
+
+def test_dahl_friction_builds_up_over_its_presliding_angle_after_each_reversal(arm: ArmModel) -> None:
+    """Closed forms of Dahl's dz/dθ = (1 − z sgn θ̇)/θ_p from z = 0: turning by θ gives
+    z = 1 − exp(−θ/θ_p); after a reversal at z_0, turning back by θ gives −1 + (1 + z_0) exp(−θ/θ_p)."""
+    angle, rate = 0.02, 1000.0
+    effect = DahlFriction(friction_nm=np.arange(1.0, 8.0), presliding_rad=angle)
+    t = np.arange(201) / rate
+    speed = 0.4  # rad/s: 0.2 mrad per sample, 0.04 rad in 0.1 s, then back
+    qd = np.where(t < 0.1, speed, -speed)[:, None] * np.ones(7)
+    qd[100] = 0.0  # the reversal: the trapezoid turns half a step either side of it
+    turned = np.concatenate([[0.0], np.cumsum(0.5 * (qd[1:, 0] + qd[:-1, 0]) / rate)])
+    up = 1.0 - np.exp(-turned[:101] / angle)
+    back = -1.0 + (1.0 + up[-1]) * np.exp(-(turned[100] - turned[100:]) / angle)
+    z = effect.torque(arm, np.zeros_like(qd), qd, np.zeros_like(qd), stamps_s=t)
+    np.testing.assert_allclose(z[:101] / np.arange(1.0, 8.0), np.tile(up[:, None], 7), atol=1e-12)
+    np.testing.assert_allclose(z[100:] / np.arange(1.0, 8.0), np.tile(back[:, None], 7), atol=1e-12)
+    assert z[100, 0] == pytest.approx(1.0 - np.exp(-2.0), abs=2e-3), "after about two presliding angles: 86 % of F"
+    # Its limit θ_p → 0 is Coulomb friction with a sharp sign.
+    _, q, qd_smooth, qdd = smooth_series(arm)
+    stamps = np.arange(len(q)) / 100.0
+    sharp = DahlFriction(friction_nm=0.4, presliding_rad=1e-6).torque(arm, q, qd_smooth, qdd, stamps_s=stamps)
+    steady = np.vstack([np.zeros((1, 7), bool), np.sign(qd_smooth[1:]) == np.sign(qd_smooth[:-1])])  # no reversal within the step
+    coulomb = CoulombFriction(0.4, 1e-9).torque(arm, q, qd_smooth, qdd)
+    assert steady.mean() > 0.9
+    np.testing.assert_allclose(sharp[steady], coulomb[steady], atol=1e-9)
+    with pytest.raises(EffectSpecError, match="needs a time series"):
+        effect.torque(arm, q, qd_smooth, qdd)
 
 
 def test_s1_spring_holds_30_nm_at_zero_and_less_as_the_arm_rises(arm: ArmModel) -> None:

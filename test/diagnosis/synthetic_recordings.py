@@ -45,6 +45,17 @@ def motion(arm: ArmModel, seed: int, seconds: float, rate_hz: float = 100.0) -> 
     return t, q, qd, qdd
 
 
+def dahl_state(q: np.ndarray, presliding_rad: float) -> np.ndarray:
+    """(n, 7) Dahl's friction state along q (n, 7) rad from 0: dz/dθ = (1 − z sgn dθ)/θ_p solved
+    exactly over each step of the exact angle, z → sgn(dθ) by exp(−|dθ|/θ_p)."""
+    z = np.zeros_like(q)
+    for k in range(1, len(q)):
+        step = q[k] - q[k - 1]
+        target = np.sign(step)
+        z[k] = target + (z[k - 1] - target) * np.exp(-np.abs(step) / presliding_rad)
+    return z
+
+
 def rigid_torque(arm: ArmModel, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
     """(n, 7) N·m, Pinocchio's RNEA of ``arm`` sample by sample."""
     model = pinocchio_from_arm(arm)
@@ -64,14 +75,18 @@ def recording(
     carried: ArmModel | None = None,
     effort_noise_nm: float = 0.02,
     velocity_noise_rad_s: float = 0.0,
+    dahl: tuple[Sequence[float] | float, float] | None = None,
 ) -> Recording:
     """A recording of ``arm``'s side: RNEA of ``carried`` (default the arm itself) + viscous q̇ +
-    Coulomb tanh(q̇/ε) + armature q̈ + noise, quantised; q̇ noise (if any) added to the recorded q̇ only."""
+    Coulomb tanh(q̇/ε) + armature q̈ + Dahl's friction F·z (``dahl`` = (F, θ_p): :func:`dahl_state`) + noise,
+    quantised; q̇ noise (if any) added to the recorded q̇ only."""
     rng = np.random.default_rng(seed + 1000)
     t, q, qd, qdd = motion(arm, seed, seconds, rate_hz)
     effort = rigid_torque(carried or arm, q, qd, qdd)
     effort += np.asarray(viscous, dtype=float) * qd + np.asarray(coulomb, dtype=float) * np.tanh(qd / coulomb_eps)
     effort += np.asarray(armature, dtype=float) * qdd
+    if dahl is not None:
+        effort += np.asarray(dahl[0], dtype=float) * dahl_state(q, dahl[1])
     effort += rng.normal(0.0, effort_noise_nm, effort.shape)
     effort = np.round(effort / EFFORT_QUANTUM_NM) * EFFORT_QUANTUM_NM
     qd_recorded = qd + rng.normal(0.0, velocity_noise_rad_s, qd.shape) if velocity_noise_rad_s else qd

@@ -23,7 +23,7 @@ from scipy.signal import butter, sosfiltfilt
 
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.core.effect_specs import effects_from_dict, load_effects
-from baxter_dynamics_ros.core.effects import CoulombFriction, Delay, InertialError, Payload, StribeckFriction, ViscousFriction
+from baxter_dynamics_ros.core.effects import CoulombFriction, DahlFriction, Delay, InertialError, Payload, StribeckFriction, ViscousFriction
 from baxter_dynamics_ros.core.recording import Recording
 from baxter_dynamics_ros.diagnosis.inertial_fit import COM_BOX_M, MASS_RANGE, PAYLOAD_COM_BOX_M, PAYLOAD_MASS_KG
 from baxter_dynamics_ros.diagnosis.procedure import CANDIDATE_NAMES, diagnose
@@ -94,8 +94,8 @@ def held_out_from_yaml(text: str, arm, test) -> tuple[float, dict[str, np.ndarra
                     share = np.stack([np.interp(t - e.delay_s[j], t, tau_nominal[:, j]) for j in range(7)], axis=1) - tau_nominal
                     here = here + share
                 else:
-                    friction = isinstance(e, (ViscousFriction, CoulombFriction, StribeckFriction))
-                    share = e.torque(arm, rec.q, qd_smooth if friction else rec.qd, qdd)
+                    friction = isinstance(e, (ViscousFriction, CoulombFriction, StribeckFriction, DahlFriction))
+                    share = e.torque(arm, rec.q, qd_smooth if friction else rec.qd, qdd, stamps_s=t)
                     here = here + share
                 share_of[e.name][:, at] = share[:, at]
             model[:, at] = here[:, at]

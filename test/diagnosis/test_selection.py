@@ -299,6 +299,21 @@ def test_an_effect_says_why_it_is_not_at_a_joint(arm, friction_run) -> None:
         assert all(f"{j.split('_', 1)[-1]} ({why})" in e.reason for j, why in e.not_at.items())
 
 
+def test_which_friction_fits_a_joint_is_decided_at_that_joint(arm) -> None:
+    """Coulomb friction at s0, e1 and w0 and Dahl's friction (presliding 0.05 rad) at e0: Coulomb's
+    column explains part of e0's hysteresis too, and may be taken there first, yet the selection
+    ends with Dahl's at e0 and Coulomb's at the other three, not one friction law at all four."""
+    layout = column_layout()
+    coulomb = [0.8, 0.0, 0.0, 0.6, 0.2, 0.0, 0.0]
+    dahl = ([0.0, 0.0, 0.8, 0.0, 0.0, 0.0, 0.0], 0.05)
+    named = [(k, recording(arm, seed, coulomb=coulomb, dahl=dahl)) for k, seed in zip("ABC", (31, 32, 33))]
+    selection = select(arm, layout, Pool.of(blocks_of(arm, named, CUTOFF_HZ)))
+    acting = {layout.candidates[t.candidate].label: t.joints for t in selection.model.terms}
+    assert acting.get("dahl_friction (presliding 0.05 rad)") == (2,), (acting, selection.moves)
+    coulomb_at = next(joints for label, joints in acting.items() if label.startswith("coulomb_friction"))
+    assert coulomb_at == (0, 3, 4), (acting, selection.moves)
+
+
 def test_pure_noise_selects_nothing_physical(arm) -> None:
     """Recordings of the rigid arm with effort noise at the sensor's floor (0.1 N·m) and q̇ noise
     (0.015 rad/s) only: no physical effect is selected; the q̈ filter (acceleration_noise) is."""

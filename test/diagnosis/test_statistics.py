@@ -202,14 +202,15 @@ def test_candidates_know_their_alternatives_and_what_the_spring_spans() -> None:
     from baxter_dynamics_ros.diagnosis.fit import Model, Term
 
     layout = column_layout()
-    pairs = {"payload": {"inertial_error"}, "inertial_error": {"payload"}, "coulomb_friction": {"stribeck_friction"}, "stribeck_friction": {"coulomb_friction"}}
+    friction = {"coulomb_friction", "stribeck_friction", "dahl_friction"}
+    pairs = {"payload": {"inertial_error"}, "inertial_error": {"payload"}} | {name: friction - {name} for name in friction}
     for c in layout.candidates:
         assert c.alternatives == frozenset(pairs.get(c.name, ())), c.label
         assert c.spanned_by_spring == (c.name in ("torque_offset", "torque_gain")), c.label
         assert c.is_spring == (c.name == "s1_spring"), c.label
         assert c.is_offset == (c.name == "torque_offset"), c.label
         assert c.is_payload == (c.name == "payload"), c.label
-        assert (c.variant is None) == (c.name not in ("coulomb_friction", "stribeck_friction")), c.label
+        assert (c.variant is None) == (c.name not in friction), c.label
     spring = next(i for i, c in enumerate(layout.candidates) if c.name == "s1_spring")
     offset = next(i for i, c in enumerate(layout.candidates) if c.name == "torque_offset")
     assert layout.has_spring(Model.of([Term(offset, (0,)), Term(spring, (1,))]))
@@ -230,7 +231,7 @@ def test_candidates_bound_their_parameters_as_the_physics_does() -> None:
     and an offset, a delay, the spring's coefficients and an inertial change are free; a bound per
     column, the parameter count of each candidate (7 per joint parameter)."""
     expected = {
-        "torque_offset": -np.inf, "viscous_friction": 0.0, "coulomb_friction": 0.0, "stribeck_friction": 0.0,
+        "torque_offset": -np.inf, "viscous_friction": 0.0, "coulomb_friction": 0.0, "stribeck_friction": 0.0, "dahl_friction": 0.0,
         "s1_spring": -np.inf, "payload": -np.inf, "inertial_error": -np.inf, "armature": 0.0, "delay": -np.inf,
     }  # fmt: skip
     for c in column_layout().candidates:
