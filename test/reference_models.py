@@ -301,6 +301,17 @@ class LiteralLagrangeEuler:
 
 
 # ----------------------------------------------------------------------------- test helpers
+def dahl_state(q: np.ndarray, presliding_rad: float) -> np.ndarray:
+    """(n, 7) Dahl's friction state along q (n, 7) rad from 0: dz/dθ = (1 − z sgn dθ)/θ_p solved
+    exactly over each step of the angle itself (not of q̇, as the package does), z → sgn(Δq) by exp(−|Δq|/θ_p)."""
+    z = np.zeros_like(q)
+    for k in range(1, len(q)):
+        step = q[k] - q[k - 1]
+        target = np.sign(step)
+        z[k] = target + (z[k - 1] - target) * np.exp(-np.abs(step) / presliding_rad)
+    return z
+
+
 def random_states(
     arm: ArmModel, n: int, seed: int, qdd_max_rad_s2: float, qd_max_rad_s: float = np.inf
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

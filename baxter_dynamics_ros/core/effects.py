@@ -67,6 +67,7 @@ __all__ = [
     "TorqueOffset",
     "ViscousFriction",
     "friction_law",
+    "presliding_state",
     "s1_spring_law",
     "total_torque",
 ]

@@ -249,17 +249,16 @@ def prepare(arm: ArmModel, rec: Recording, cutoffs_hz: Sequence[float]) -> Prepa
     cutoffs = tuple(float(c) for c in cutoffs_hz)
     qd_lowpassed, qdd = {}, {}
     tau = np.empty_like(rec.q)
+    friction_qd = np.empty_like(rec.qd)  # each joint's q̇ low-passed at its own cut-off
     for c, joints in _joints_by_cutoff(cutoffs):
         qd_lowpassed[c] = zero_phase_lowpass(rec.qd, rec.rate_hz, c, segments=rec.segments)
         qdd[c] = zero_phase_acceleration(qd_lowpassed[c], rec.rate_hz, None, segments=rec.segments)
         tau[:, joints] = arm.inverse_dynamics(rec.q, rec.qd, qdd[c])[:, joints]
+        friction_qd[:, joints] = qd_lowpassed[c][:, joints]
     residual = rec.effort - tau
     delay_columns = np.gradient(tau, stamps, axis=0)
     np.negative(delay_columns, out=delay_columns)
     residual_raw = rec.effort - arm.inverse_dynamics(rec.q, rec.qd, first_difference(rec.qd, stamps))
-    friction_qd = np.empty_like(rec.qd)
-    for c, joints in _joints_by_cutoff(cutoffs):
-        friction_qd[:, joints] = qd_lowpassed[c][:, joints]
     dahl_states = {a: DahlFriction(friction_nm=0.0, presliding_rad=a).state(friction_qd, stamps) for a in DAHL_PRESLIDING_RAD}
     return Prepared(
         q=rec.q, qd=rec.qd, cutoffs_hz=cutoffs, qd_lowpassed=qd_lowpassed, qdd=qdd, rigid_torque=tau, residual=residual,

@@ -12,7 +12,7 @@ from collections.abc import Sequence
 from functools import cache
 
 import numpy as np
-from reference_models import pinocchio_from_arm
+from reference_models import dahl_state, pinocchio_from_arm
 
 from baxter_dynamics_ros.core.arm_model import ArmModel
 from baxter_dynamics_ros.core.recording import Recording
@@ -45,17 +45,6 @@ def motion(arm: ArmModel, seed: int, seconds: float, rate_hz: float = 100.0) -> 
     return t, q, qd, qdd
 
 
-def dahl_state(q: np.ndarray, presliding_rad: float) -> np.ndarray:
-    """(n, 7) Dahl's friction state along q (n, 7) rad from 0: dz/dθ = (1 − z sgn dθ)/θ_p solved
-    exactly over each step of the exact angle, z → sgn(dθ) by exp(−|dθ|/θ_p)."""
-    z = np.zeros_like(q)
-    for k in range(1, len(q)):
-        step = q[k] - q[k - 1]
-        target = np.sign(step)
-        z[k] = target + (z[k - 1] - target) * np.exp(-np.abs(step) / presliding_rad)
-    return z
-
-
 def rigid_torque(arm: ArmModel, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
     """(n, 7) N·m, Pinocchio's RNEA of ``arm`` sample by sample."""
     model = pinocchio_from_arm(arm)
@@ -78,7 +67,7 @@ def recording(
     dahl: tuple[Sequence[float] | float, float] | None = None,
 ) -> Recording:
     """A recording of ``arm``'s side: RNEA of ``carried`` (default the arm itself) + viscous q̇ +
-    Coulomb tanh(q̇/ε) + armature q̈ + Dahl's friction F·z (``dahl`` = (F, θ_p): :func:`dahl_state`) + noise,
+    Coulomb tanh(q̇/ε) + armature q̈ + Dahl's friction F·z (``dahl`` = (F, θ_p): ``reference_models.dahl_state``) + noise,
     quantised; q̇ noise (if any) added to the recorded q̇ only."""
     rng = np.random.default_rng(seed + 1000)
     t, q, qd, qdd = motion(arm, seed, seconds, rate_hz)

@@ -19,6 +19,7 @@ from baxter_dynamics_ros.simulation.sensor import START_STAMP_NS
 from baxter_dynamics_ros.simulation.spec import SensorModel, SimulationSpec, read_spec_json
 from msg_adapters.recording_files import read_recording
 from msg_adapters.robot_joint_states import BAXTER_JOINT_NAMES, robot_joint_states
+from reference_models import dahl_state
 from repo_paths import CONFIG
 
 HALF_STEP_NM = 0.002 + 1e-9  # half the effort quantisation step
@@ -73,17 +74,13 @@ def test_recorded_effort_minus_rigid_body_is_the_effects_share(arm: ArmModel, ef
 
 def test_dahl_friction_is_integrated_with_the_motion(arm: ArmModel) -> None:
     """The plant integrates Dahl's state ż = (q̇ − z|q̇|)/θ_p with the motion (RK4 at 4 kHz): the
-    recorded share is F·z, z solved here exactly over each 10 ms step of the true angle
-    (z → sgn Δq by exp(−|Δq|/θ_p)); a presliding angle too small for the step is refused."""
+    recorded share is F·z, z solved exactly over each 10 ms step of the true angle
+    (``reference_models.dahl_state``); a presliding angle too small for the step is refused."""
     friction = np.array([0.3, 0.9, 0.3, 0.3, 0.08, 0.05, 0.03])
     r = run("random", duration_s=6.0, effects={"dahl_friction": {"friction_nm": friction.tolist(), "presliding_rad": 0.02}}, physics_rate_hz=4000.0)
-    z = np.zeros_like(r.q_true)
-    for k in range(1, len(z)):
-        step = r.q_true[k] - r.q_true[k - 1]
-        z[k] = np.sign(step) + (z[k - 1] - np.sign(step)) * np.exp(-np.abs(step) / 0.02)
     share = r.effort - rigid(arm, r)
     assert np.all(np.abs(share) <= friction + HALF_STEP_NM) and np.all(np.ptp(share, axis=0) > 1.5 * friction)
-    np.testing.assert_allclose(share, friction * z, atol=0.01 * friction.max())
+    np.testing.assert_allclose(share, friction * dahl_state(r.q_true, 0.02), atol=0.01 * friction.max())
     with pytest.raises(SimulationError, match="dahl_friction is too stiff"):
         run(effects={"dahl_friction": {"friction_nm": 0.5, "presliding_rad": 1e-5}})
 
