@@ -100,17 +100,9 @@ def datasets(root: Path = DATA) -> list[Path]:
 
 def read_side(path: Path, arm: str | None) -> Recording:
     """One recording of a dataset: of ``arm`` when given; else of the arm its joint names say, or,
-    where they name none (as the other unit's ``ang_s0 …``), of the side its file name says
-    ("left" or "right" in it), as their README tells users; RecordingFileError when neither does."""
-    if arm is not None:
-        return read_recording(path, arm=arm, note=None)
-    try:
-        return read_recording(path, note=None)
-    except RecordingFileError:
-        sides = [side for side in ("left", "right") if side in path.name.lower()]
-        if len(sides) != 1:
-            raise
-        return read_recording(path, arm=sides[0], note=None)
+    where they name none (as the other unit's ``ang_s0 …``), of the side its file name says, as the
+    commands read it; RecordingFileError when neither does."""
+    return read_recording(path, arm=arm, note=None)
 
 
 def run_diagnose(train: Sequence[Path], test: Path, out: Path, arm: str) -> dict:

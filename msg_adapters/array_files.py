@@ -56,7 +56,7 @@ from baxter_dynamics_ros.core.joints import JOINT_SUFFIXES
 from baxter_dynamics_ros.core.recording import Recording
 from baxter_dynamics_ros.errors import RecordingFileError
 
-from .csv_io import Note, columns_recording
+from .csv_io import Note, columns_recording, side_in_file_name
 from .table_columns import QUANTITIES, block_meaning, time_columns
 from .text_files import kind_suffix
 
@@ -332,7 +332,11 @@ def read_array_recording(
         raise RecordingFileError(f"{path}: no recording {part!r} in this {ARRAY_FILES[kind_suffix(path)]}; it holds {', '.join(parts)}")
     label = f"{path}:{part}" if len(parts) > 1 else str(path)
     if arm is None:
-        raise RecordingFileError(f"{label}: a {ARRAY_FILES[kind_suffix(path)]} names no arm; pass --arm right|left")
+        arm = side_in_file_name(path)
+        if arm is None:
+            raise RecordingFileError(f"{label}: a {ARRAY_FILES[kind_suffix(path)]} names no arm, nor does the file name; pass --arm right|left")
+        if note is not None:
+            note(f"{label}: a {ARRAY_FILES[kind_suffix(path)]} names no arm; read as the {arm} arm, which the file name names (--arm sets it)")
     data = _load(path, parts[part])
     q, qd, effort = _layout_arrays(path, part, parts[part], data)
     columns = {

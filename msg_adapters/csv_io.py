@@ -74,7 +74,9 @@ from .datetimes import datetimes
 from .table_columns import QUANTITIES, JointColumn, TimeColumn, bare_joint_names, joint_columns, time_columns
 from .text_files import kind_suffix, read_text
 
-__all__ = ["RATE_TOLERANCE", "Note", "columns_recording", "joint_state_columns", "read_table_recording", "write_processed_table", "write_table"]
+__all__ = [
+    "RATE_TOLERANCE", "Note", "columns_recording", "joint_state_columns", "read_table_recording", "side_in_file_name", "write_processed_table", "write_table",
+]
 
 #: Largest relative difference between a given sample rate and the estimated one that is accepted.
 RATE_TOLERANCE = 0.10
@@ -88,6 +90,15 @@ _QUOTE = '"'
 #: ``rad/s^2``, ``m*s-1``, ``s²``), in brackets or not; or nothing.
 _UNIT = re.compile(r"[\[(]?[A-Za-zµμ°%/·⋅*. ^\-12²]*[\])]?")
 Note = Callable[[str], None]  # takes a one-line message for the user
+
+
+def side_in_file_name(path: str | os.PathLike[str]) -> str | None:
+    """The arm a file's name names, for files whose contents name none (the other unit's
+    ``left_circle_p90_t105.csv``): "left" or "right" when exactly one of them is a word of the name
+    (words: its runs of letters), else None."""
+    words = set(re.findall(r"[a-z]+", Path(path).name.lower()))
+    sides = [side for side in ARM_SIDES if side in words]
+    return sides[0] if len(sides) == 1 else None
 
 
 def _refuse_duplicates(path: Path, names: Sequence[str]) -> None:
@@ -471,7 +482,11 @@ def columns_recording(
     needed = _quantities(found)
     if arm is None and all((quantity, None, j) in found for quantity in needed for j in JOINT_SUFFIXES):
         example = " ".join(found[(quantity, None, "s0")].name for quantity in needed)
-        raise RecordingFileError(f"{path}: the columns name no arm ({example} ...); pass --arm right|left")
+        arm = side_in_file_name(path)
+        if arm is None:
+            raise RecordingFileError(f"{path}: the columns name no arm ({example} ...), nor does the file name; pass --arm right|left")
+        if note is not None:
+            note(f"{path}: the columns name no arm ({example} ...); read as the {arm} arm, which the file name names (--arm sets it)")
     if arm is None:
         named = [f"{side}_{j}" for (quantity, side, j) in found if quantity == "position" and side and all((k, side, j) in found for k in needed)]
         ranges = {

@@ -302,13 +302,18 @@ class LiteralLagrangeEuler:
 
 # ----------------------------------------------------------------------------- test helpers
 def dahl_state(q: np.ndarray, presliding_rad: float) -> np.ndarray:
-    """(n, 7) Dahl's friction state along q (n, 7) rad from 0: dz/dθ = (1 − z sgn dθ)/θ_p solved
-    exactly over each step of the angle itself (not of q̇, as the package does), z → sgn(Δq) by exp(−|Δq|/θ_p)."""
-    z = np.zeros_like(q)
-    for k in range(1, len(q)):
-        step = q[k] - q[k - 1]
-        target = np.sign(step)
-        z[k] = target + (z[k - 1] - target) * np.exp(-np.abs(step) / presliding_rad)
+    """(n, 7) Dahl's friction state along q (n, 7) rad from 0, over each step of the angle itself
+    (not of q̇, as the package does): :func:`dahl_state_of_steps` of Δq."""
+    return dahl_state_of_steps(np.diff(q, axis=0, prepend=q[:1]), presliding_rad)
+
+
+def dahl_state_of_steps(steps: np.ndarray, presliding_rad: float) -> np.ndarray:
+    """(n, 7) Dahl's friction state from 0 after turning steps[k] (n, 7) rad into each sample k
+    (row 0 unused): dz/dθ = (1 − z sgn dθ)/θ_p solved exactly, z → sgn(step) by exp(−|step|/θ_p)."""
+    z = np.zeros_like(steps)
+    for k in range(1, len(steps)):
+        target = np.sign(steps[k])
+        z[k] = target + (z[k - 1] - target) * np.exp(-np.abs(steps[k]) / presliding_rad)
     return z
 
 

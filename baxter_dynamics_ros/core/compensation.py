@@ -8,11 +8,14 @@ node uses in place of the rigid body:
   once (a new :class:`~baxter_dynamics_ros.core.arm_model.ArmModel`), so τ and G come from the core as before;
 - ``torque_offset``, the frictions, ``s1_spring`` and ``armature`` add their share of the effort,
   computed from q, q̇ and the estimated q̈ of the same sample;
+- ``dahl_friction`` adds F ⊙ z, z its state, which depends on each joint's motion since its last
+  reversal: the caller keeps that history and passes z — along a recording
+  :meth:`Compensation.presliding_state`, live a :meth:`Compensation.presliding_tracker` fed every
+  sample (the node's pipeline and observer each keep one, started afresh with them). A state given
+  without its history (a query of the node's services) is taken as steady sliding, z = sign(q̇);
 - ``delay`` and ``acceleration_noise`` describe the recording, not the arm: the node does not
   compensate them (its own causal estimator filters q̇; a delayed effort would need the future
-  state), and says so in its log;
-- ``dahl_friction`` depends on each joint's motion since its last reversal, a history this
-  sample-by-sample model does not keep: not compensated live either, and said so in the log.
+  state), and says so in its log.
 """
 
 from __future__ import annotations
@@ -25,14 +28,13 @@ import numpy as np
 from ..errors import EffectSpecError
 from .arm_model import ArmModel
 from .effect_specs import effects_from_dict, read_spec_file
-from .effects import Effect, InertialChange
+from .effects import DahlFriction, Effect, InertialChange, PreslidingTracker
 from .plausibility import PLAUSIBLE_FACTOR, first_beyond_plausible_effort
 
 __all__ = ["NOT_COMPENSATED", "PLAUSIBILITY_STATES", "PLAUSIBLE_QDD_RAD_S2", "Compensation", "load_compensation", "require_plausible"]
 
-#: Effects that this sample-by-sample model does not undo: a recording's (``delay``,
-#: ``acceleration_noise``) and one that needs the motion's history (``dahl_friction``).
-NOT_COMPENSATED = ("delay", "acceleration_noise", "dahl_friction")
+#: Effects of the recording, not of the arm, which the compensated model does not undo.
+NOT_COMPENSATED = ("delay", "acceleration_noise")
 
 
 class Compensation:
@@ -44,19 +46,42 @@ class Compensation:
                 arm = effect.apply_to(arm)
         self.arm = arm
         self.effects = tuple(effects)
-        self.additive = tuple(e for e in effects if not isinstance(e, InertialChange) and e.name not in NOT_COMPENSATED)
+        #: Dahl's friction, whose share needs the motion's history (None without it).
+        self.presliding: DahlFriction | None = next((e for e in effects if isinstance(e, DahlFriction)), None)
+        self.additive = tuple(
+            e for e in effects if not isinstance(e, (InertialChange, DahlFriction)) and e.name not in NOT_COMPENSATED
+        )
         self.ignored = tuple(e.name for e in effects if e.name in NOT_COMPENSATED)
 
-    def torque(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+    def torque(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, presliding: np.ndarray | None = None) -> np.ndarray:
         """Σ of the additive effects' shares of the effort, N·m, shape of q; inputs (..., 7).
 
-        Absurd parameters (a damping of 1e308) overflow to inf without a warning on stderr: the
-        callers check their results (the live pipeline resets and counts it)."""
+        presliding: Dahl's state z (..., 7) of these samples (:meth:`presliding_state`, or a
+        :meth:`presliding_tracker`'s); None takes steady sliding, z = sign(q̇). Absurd parameters
+        (a damping of 1e308) overflow to inf without a warning on stderr: the callers check their
+        results (the live pipeline resets and counts it)."""
         out = np.zeros(np.shape(q))
         with np.errstate(over="ignore", invalid="ignore"):
             for effect in self.additive:
                 out += effect.torque(self.arm, q, qd, qdd)
+            if self.presliding is not None:
+                out += self.presliding.friction_nm * (np.sign(qd) if presliding is None else presliding)
         return out
+
+    def presliding_state(self, qd: np.ndarray, stamps_ns: np.ndarray) -> np.ndarray | None:
+        """Dahl's state z (N, 7) along a time series q̇ (N, 7) rad/s at stamps_ns (N,), ns, from z = 0
+        (None without ``dahl_friction``); the numbers of a :meth:`presliding_tracker` fed those samples."""
+        if self.presliding is None:
+            return None
+        qd = np.asarray(qd, dtype=np.float64)
+        if len(qd) < 2:
+            return np.zeros(qd.shape)
+        stamps_s = (np.asarray(stamps_ns, dtype=np.int64) - int(stamps_ns[0])) * 1e-9
+        return self.presliding.state(qd, stamps_s)
+
+    def presliding_tracker(self) -> PreslidingTracker | None:
+        """A new live tracker of Dahl's state, from z = 0 (None without ``dahl_friction``)."""
+        return None if self.presliding is None else PreslidingTracker(self.presliding.presliding_rad)
 
 
 def load_compensation(arm: ArmModel, path: str | os.PathLike[str]) -> Compensation:

@@ -61,6 +61,7 @@ __all__ = [
     "InertialChange",
     "InertialError",
     "Payload",
+    "PreslidingTracker",
     "S1Spring",
     "StribeckFriction",
     "TorqueGain",
@@ -91,6 +92,15 @@ def friction_law(qd, coulomb_nm, static_nm, stribeck_rad_s, smoothing_rad_s):
 
 
 @njit(cache=True)
+def _presliding_step(state, step_rad, presliding_rad):
+    """Dahl's state after turning step_rad (rad) from state: towards sign(step) by exp(−|step|/θ_p)."""
+    if step_rad == 0.0:
+        return state
+    target = 1.0 if step_rad > 0.0 else -1.0
+    return target + (state - target) * np.exp(-abs(step_rad) / presliding_rad)
+
+
+@njit(cache=True)
 def presliding_state(qd, stamps_s, presliding_rad):
     """Dahl's friction state z (n, 7) in [−1, 1] along a time series: after each reversal z moves
     towards sign(Δθ) as 1 − exp(−|Δθ|/θ_p) of the angle Δθ turned since, exactly for a monotone
@@ -100,12 +110,37 @@ def presliding_state(qd, stamps_s, presliding_rad):
     for j in range(joints):
         state = 0.0
         for k in range(1, n):
-            step = 0.5 * (qd[k, j] + qd[k - 1, j]) * (stamps_s[k] - stamps_s[k - 1])
-            if step != 0.0:
-                target = 1.0 if step > 0.0 else -1.0
-                state = target + (state - target) * np.exp(-abs(step) / presliding_rad)
+            state = _presliding_step(state, 0.5 * (qd[k, j] + qd[k - 1, j]) * (stamps_s[k] - stamps_s[k - 1]), presliding_rad)
             z[k, j] = state
     return z
+
+
+@njit(cache=True)
+def _presliding_advance(z, qd_before, qd, dt_s, presliding_rad):
+    """:func:`presliding_state`'s step for one new sample, z (7,) in place."""
+    for j in range(z.shape[0]):
+        z[j] = _presliding_step(z[j], 0.5 * (qd[j] + qd_before[j]) * dt_s, presliding_rad)
+
+
+class PreslidingTracker:
+    """Dahl's state z (7,) of a live stream of samples, one at a time: the numbers of
+    :func:`presliding_state` over the samples since the last :meth:`reset` (z = 0 there)."""
+
+    def __init__(self, presliding_rad: float) -> None:
+        self.presliding_rad = float(presliding_rad)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the motion: the next sample starts from z = 0."""
+        self._z = np.zeros(N)
+        self._qd: np.ndarray | None = None
+
+    def update(self, qd: np.ndarray, dt_s: float) -> np.ndarray:
+        """z (7,) after a sample with q̇ (7,) rad/s, dt_s s after the last one (a copy)."""
+        if self._qd is not None:
+            _presliding_advance(self._z, self._qd, np.asarray(qd, dtype=np.float64), float(dt_s), self.presliding_rad)
+        self._qd = np.array(qd, dtype=np.float64)
+        return self._z.copy()
 
 
 @vectorize(["float64(float64, float64, float64, float64, float64)"], cache=True)

@@ -12,7 +12,9 @@ links, the additive effects' torque added —
 - q̈_c = M'⁻¹(τ − C' − G' − τ_add(q, q̇, 0)): the additive effects at q̈ = 0 (an armature would
   need q̈ itself);
 
-where ' marks the model with the inertial changes. Kinematics do not depend on the effects.
+where ' marks the model with the inertial changes. A queried state has no motion before it, so
+Dahl's friction (``dahl_friction``) is taken at steady sliding, F sign(q̇), 0 at rest. Kinematics do
+not depend on the effects.
 Every input is (N, 7) in rad, rad/s, rad/s², N·m; results are new arrays.
 """
 

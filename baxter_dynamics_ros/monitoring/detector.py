@@ -137,5 +137,5 @@ def public_residual(arm: ArmModel, recording: Recording, compensation: Compensat
     zero = np.zeros_like(recording.q)
     r = recording.effort - (arm if compensation is None else compensation.arm).inverse_dynamics(recording.q, recording.qd, zero)
     if compensation is not None:
-        r = r - compensation.torque(recording.q, recording.qd, zero)
+        r = r - compensation.torque(recording.q, recording.qd, zero, compensation.presliding_state(recording.qd, recording.stamps_ns))
     return r

@@ -18,7 +18,8 @@ Discretisation, per sample k with its own Δt_k (backward Euler in r, so stable 
     ⇒ r_k = K_O (I_{k−1} + β_k Δt_k − (p_k − p_0)) / (1 + K_O Δt_k);  r_0 = 0.
 
 With a :class:`~baxter_dynamics_ros.core.compensation.Compensation`, the model is its ``arm`` and τ_meas
-has the additive effects' share at q̈ = 0 removed (q̈-dependent shares, armature, are not).
+has the additive effects' share at q̈ = 0 removed (q̈-dependent shares, armature, are not); Dahl's
+friction with its state over the (aligned) samples since the observer's start.
 
 Effort–state alignment: the recorded effort and joint state need not belong to the same instant.
 ``effort_delay_s`` = d says recorded effort(t) = true effort(t − d) (d > 0: the effort is late, as
@@ -134,19 +135,24 @@ def _model(arm: ArmModel, compensation: Compensation | None) -> ArmModel:
 
 
 def momentum_terms(
-    arm: ArmModel, q: np.ndarray, qd: np.ndarray, effort: np.ndarray, compensation: Compensation | None = None
+    arm: ArmModel, stamps_ns: np.ndarray, q: np.ndarray, qd: np.ndarray, effort: np.ndarray, compensation: Compensation | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """p = M(q) q̇ (kg·m²/s) and β = τ_meas + Cᵀ(q, q̇) q̇ − G(q) (N·m), both (M, 7), for (M, 7) inputs."""
+    """p = M(q) q̇ (kg·m²/s) and β = τ_meas + Cᵀ(q, q̇) q̇ − G(q) (N·m), both (M, 7), for (M, 7)
+    inputs of a time series at stamps_ns (M,), ns (Dahl's friction state is the series')."""
     model = _model(arm, compensation)
     p, w = lagrange_euler.momentum_terms(model.dh, model.pseudo_inertias, model.gravity_m_s2, q, qd, MDOT_STEP_S)
-    return p, _beta_in_place(w, q, qd, effort, compensation)
+    presliding = None if compensation is None else compensation.presliding_state(qd, stamps_ns)
+    return p, _beta_in_place(w, q, qd, effort, compensation, presliding)
 
 
-def _beta_in_place(w: np.ndarray, q: np.ndarray, qd: np.ndarray, effort: np.ndarray, compensation: Compensation | None) -> np.ndarray:
-    """β = w + τ_meas (less the compensation's share at q̈ = 0), in w (M, 7): w = Cᵀ q̇ − G of the core."""
+def _beta_in_place(
+    w: np.ndarray, q: np.ndarray, qd: np.ndarray, effort: np.ndarray, compensation: Compensation | None, presliding: np.ndarray | None
+) -> np.ndarray:
+    """β = w + τ_meas (less the compensation's share at q̈ = 0, Dahl's state presliding), in w (M, 7):
+    w = Cᵀ q̇ − G of the core."""
     w += effort
     if compensation is not None:
-        w -= compensation.torque(q, qd, np.zeros_like(q))
+        w -= compensation.torque(q, qd, np.zeros_like(q), presliding)
     return w
 
 
@@ -170,6 +176,7 @@ class MomentumObserver:
         self.effort_delay_s = check_effort_delay(effort_delay_s)
         self._aligner = _Aligner(self.effort_delay_s) if self.effort_delay_s else None
         self._model = _model(arm, compensation)
+        self._presliding = None if compensation is None else compensation.presliding_tracker()
         self._sample = np.zeros((3, 1, N))  # q, q̇, τ_meas of one sample as (1, 7) rows: no per-call allocation
         self._terms = np.zeros((2, 1, N))  # p and Cᵀ q̇ − G of that sample
         self.reset()
@@ -181,6 +188,8 @@ class MomentumObserver:
         self.r = np.zeros(N)
         if self._aligner is not None:
             self._aligner.reset()
+        if self._presliding is not None:
+            self._presliding.reset()
 
     def update(self, q: np.ndarray, qd: np.ndarray, tau_meas: np.ndarray, dt_s: float) -> np.ndarray:
         """r (7,) N·m for one sample: q (7,) rad, qd (7,) rad/s, tau_meas (7,) N·m, dt_s since the last one."""
@@ -192,7 +201,8 @@ class MomentumObserver:
         lagrange_euler.batch_momentum_terms(
             model.dh, model.pseudo_inertias, model.gravity_m_s2, sample[0], sample[1], MDOT_STEP_S, terms[0], terms[1]
         )  # fmt: skip
-        _beta_in_place(terms[1], sample[0], sample[1], sample[2], self.compensation)
+        presliding = None if self._presliding is None else self._presliding.update(qd, dt_s)[None]
+        _beta_in_place(terms[1], sample[0], sample[1], sample[2], self.compensation, presliding)
         return self._step(terms[0, 0], terms[1, 0], dt_s)
 
     def _step(self, p: np.ndarray, beta: np.ndarray, dt_s: float) -> np.ndarray:
@@ -248,7 +258,7 @@ def observe_arrays(
         aligner = _Aligner(effort_delay_s)
         aligned = [aligner.push(float(dt[i]), q[i], qd[i], effort[i]) for i in range(len(q))]
         q, qd, effort = (np.array([a[i] for a in aligned]).reshape(-1, N) for i in range(3))
-    p, beta = momentum_terms(arm, q, qd, effort, compensation)
+    p, beta = momentum_terms(arm, stamps_ns, q, qd, effort, compensation)
     return _observer_run(p, beta, dt, k)
 
 
@@ -280,7 +290,7 @@ def estimate_effort_delay(
     k = check_gain(gain_1_s)
     prepared = []
     for rec in recordings:
-        p, w = momentum_terms(arm, rec.q, rec.qd, np.zeros_like(rec.q), compensation)
+        p, w = momentum_terms(arm, rec.stamps_ns, rec.q, rec.qd, np.zeros_like(rec.q), compensation)
         t = (rec.stamps_ns - rec.stamps_ns[0]) * 1e-9
         dt = np.diff(rec.stamps_ns, prepend=rec.stamps_ns[0]) * 1e-9
         prepared.append((t, dt, p, w, rec.effort))

@@ -28,7 +28,8 @@ into G(q), τ and the residual, or into a :class:`~baxter_dynamics_ros.core.samp
    after a (re)start;
 6. τ = M(q) q̈ + C(q, q̇) + G(q) (eq. 1) and G(q) = τ(q, 0, 0) from one call of the compiled core;
    with an effects file, of the compensated model (:mod:`baxter_dynamics_ros.core.compensation`: the
-   inertial effects in M, C, G, the others' share of the effort added to τ);
+   inertial effects in M, C, G, the others' share of the effort added to τ; Dahl's friction state
+   advanced by this sample's q̇ over Δt_k, from z = 0 at a (re)start);
    if either holds NaN/inf, or q̈, the residual or r does, the estimator and the observer (whose
    states hold the same values) are reset, the sample skipped (``non_finite_model``) and the reset
    counted (``resets_total.non_finite_state``). The plausibility bounds of step 2 keep every
@@ -149,6 +150,7 @@ class ResidualPipeline:
         self.compensation = compensation
         self.arm = arm if compensation is None else compensation.arm
         self._estimator = make_estimator(estimator, cutoff_hz)
+        self._presliding = None if compensation is None else compensation.presliding_tracker()
         try:
             self._observer = MomentumObserver(arm, observer_gain_1_s, compensation, observer_effort_delay_s)
         except CollisionError as err:
@@ -180,6 +182,8 @@ class ResidualPipeline:
     def reset(self) -> None:
         """Forget every past sample: the next one restarts the estimator (q̈ = 0) and the observer (r = 0)."""
         self._estimator.reset()
+        if self._presliding is not None:
+            self._presliding.reset()
         self._observer.reset()
         self._observing = False
         self._last_stamp_ns = None
@@ -214,7 +218,10 @@ class ResidualPipeline:
         dt_s = 0.0 if self._estimated_ns is None else (stamp_ns - self._estimated_ns) * 1e-9
         self._estimated_ns = stamp_ns
         qdd = self._estimator.update(qd, dt_s)
-        extra = _ABSENT if self.compensation is None else self.compensation.torque(q, qd, qdd)
+        extra = _ABSENT
+        if self.compensation is not None:
+            z = None if self._presliding is None else self._presliding.update(qd, dt_s)
+            extra = self.compensation.torque(q, qd, qdd, z)
         torques = np.empty((3, N))  # τ, G, residual
         if not _model_torques(*self._workspace, self._gravity, q, qd, qdd, _given(effort), extra, torques):
             self.reset()

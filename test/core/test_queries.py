@@ -45,6 +45,19 @@ def test_compensation_changes_the_answers_and_is_refused_without_effects() -> No
         rigid.gravity(Q, compensate=True)
 
 
+def test_dahl_friction_of_a_state_without_history_is_steady_sliding() -> None:
+    """A query has no motion before it: Dahl's friction is taken at steady sliding, F sign(q̇), 0 at rest."""
+    from baxter_dynamics_ros.core.compensation import Compensation
+    from baxter_dynamics_ros.core.effects import DahlFriction
+
+    friction = np.array([0.3, 1.0, 0.5, 0.4, 0.1, 0.08, 0.05])
+    queries = DynamicsQueries(ARM, Compensation(ARM, (DahlFriction(friction, 0.05),)))
+    qd = QD.copy()
+    qd[:10] = 0.0
+    assert_close(queries.inverse_dynamics(Q, qd, QDD, True) - ARM.inverse_dynamics(Q, qd, QDD), friction * np.sign(qd), "F sign(qd)", atol=1e-12)
+    assert_close(queries.gravity(Q, True), ARM.gravity(Q), "no friction at rest", atol=1e-12)
+
+
 def test_flange_kinematics_are_the_models() -> None:
     pose, jacobian = QUERIES.flange_kinematics(Q)
     np.testing.assert_array_equal(pose, ARM.forward_kinematics(Q))

@@ -63,7 +63,7 @@ def test_coriolis_transpose_term_matches_pinocchio(arm: ArmModel) -> None:
     ref = paper_reference(arm.side)
     q, qd, _ = random_states(arm, 20, 0, 5.0)
     tau = np.zeros_like(q)
-    p, beta = momentum_terms(arm, q, qd, tau)
+    p, beta = momentum_terms(arm, np.arange(len(q)) * 10_000_000, q, qd, tau)
     for k in range(len(q)):
         c = pin.computeCoriolisMatrix(ref.model, ref.data, q[k], qd[k])
         np.testing.assert_allclose(beta[k] + ref.gravity(q[k]), c.T @ qd[k], atol=1e-7)
@@ -226,11 +226,24 @@ def test_observer_stays_near_zero_without_external_torque(arm: ArmModel) -> None
 
 
 def test_compensated_effects_leave_no_residual(arm: ArmModel) -> None:
-    effects = effects_from_dict({"s1_spring": {}, "viscous_friction": {"damping_nm_s_rad": 0.5}})
+    """Dahl's friction too: the plant integrates its state with the motion (RK4), the observer follows
+    it along the recording, per sample as in batch."""
+    effects = effects_from_dict({
+        "s1_spring": {}, "viscous_friction": {"damping_nm_s_rad": 0.5},
+        "dahl_friction": {"friction_nm": {"s1": 1.0, "e0": 0.6, "w1": 0.2}, "presliding_rad": 0.05},
+    })  # fmt: skip
     result = simulate(SimulationSpec("random", 3.0, 100.0, seed=5, effects=effects, sensor=EXACT))
     rec = result.recording()
     assert np.abs(observe(arm, rec, GAIN)).max() > 5.0
-    assert np.abs(observe(arm, rec, GAIN, Compensation(arm, effects))).max() < 0.1
+    compensation = Compensation(arm, effects)
+    r = observe(arm, rec, GAIN, compensation)
+    assert np.abs(r).max() < 0.1
+    steady = Compensation(arm, tuple(e for e in effects if e.name != "dahl_friction") + effects_from_dict(
+        {"coulomb_friction": {"friction_nm": {"s1": 1.0, "e0": 0.6, "w1": 0.2}, "smoothing_rad_s": 1e-6}}))
+    assert np.abs(observe(arm, rec, GAIN, steady)).max() > 3 * np.abs(r).max(), "its state, not sign(q̇), is what leaves none"
+    observer = MomentumObserver(arm, GAIN, compensation)
+    dt = np.diff(rec.stamps_ns, prepend=rec.stamps_ns[0]) * 1e-9
+    np.testing.assert_allclose([observer.update(rec.q[k], rec.qd[k], rec.effort[k], dt[k]) for k in range(len(rec))], r, atol=1e-12)
 
 
 def test_public_scheme_thresholds_and_detector() -> None:

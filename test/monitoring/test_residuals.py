@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import yaml
 from repo_paths import REPO
-from reference_models import assert_close, paper_reference, random_states
+from reference_models import assert_close, dahl_state_of_steps, paper_reference, random_states
 
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.core.acceleration import FirstDifference, LowPassDifferentiator, first_difference
@@ -207,6 +207,33 @@ def test_non_finite_dynamics_skips_resets_and_is_counted(states) -> None:
     # Reset each time: nothing of it stays. With the damping at rest (q̇ = 0) the sample goes through, from q̈ = 0.
     after = pipeline.process(ArmSample(int(stamps[3]), q[3], np.zeros(7), effort[3]))
     assert isinstance(after, ModelTorques) and np.all(after.qdd == 0) and np.all(np.isfinite(after.tau))
+
+
+def test_dahl_friction_is_compensated_with_its_state_from_each_restart(states) -> None:
+    """τ with dahl_friction compensated − τ without = F ⊙ z, z Dahl's state over the trapezoid of the
+    samples' q̇ (an independent exact step), from z = 0 at the start and again after a stamp backwards."""
+    from baxter_dynamics_ros.core.compensation import Compensation
+    from baxter_dynamics_ros.core.effects import DahlFriction
+
+    stamps, q, _, effort = states
+    t = (stamps - stamps[0]) * 1e-9
+    qd = np.outer(np.sin(2 * np.pi * 1.3 * t), [0.2, 0.3, -0.25, 0.1, 0.5, -0.4, 0.6])  # reversals every ~0.4 s
+    friction = np.array([0.3, 1.0, 0.5, 0.4, 0.1, 0.08, 0.05])
+    restart = 35
+    stamps = stamps.copy()
+    stamps[restart:] -= stamps[restart] - stamps[0] + 1  # the recording restarts: one sample skipped, then afresh
+    with_dahl = run(ResidualPipeline(ARM, compensation=Compensation(ARM, (DahlFriction(friction, 0.05),))), stamps, q, qd, effort)
+    rigid = run(ResidualPipeline(ARM), stamps, q, qd, effort)
+    assert with_dahl[restart] == rigid[restart] == SkipReason.STAMP_BACKWARDS
+    kept = [k for k in range(N) if k != restart]
+    expected = np.zeros((N, 7))
+    for part in (np.arange(restart), np.arange(restart + 1, N)):
+        steps = np.zeros((len(part), 7))
+        steps[1:] = 0.5 * (qd[part][1:] + qd[part][:-1]) * np.diff(stamps[part])[:, None] * 1e-9
+        expected[part] = friction * dahl_state_of_steps(steps, 0.05)
+    share = stacked([with_dahl[k] for k in kept], "tau") - stacked([rigid[k] for k in kept], "tau")
+    np.testing.assert_allclose(share, expected[kept], atol=1e-12)
+    assert np.all(np.abs(expected[kept]).max(axis=0) > 0.3 * friction), "the state moved at every joint"
 
 
 def test_reset_and_configure_restart_the_estimator(states) -> None:

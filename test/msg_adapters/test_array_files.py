@@ -60,7 +60,7 @@ def test_each_trajectory_of_a_forward_dynamics_file_is_a_recording(tmp_path: Pat
         read_recording(path, arm="left")
     with pytest.raises(RecordingFileError, match=r"no recording 'baxtertraj9'.*holds baxtertraj1, baxtertraj2, baxtertraj3"):
         read_recording(f"{path}:baxtertraj9", arm="left")
-    with pytest.raises(RecordingFileError, match=r"baxtertraj2: a MATLAB file names no arm; pass --arm"):
+    with pytest.raises(RecordingFileError, match=r"baxtertraj2: a MATLAB file names no arm, nor does the file name; pass --arm"):
         read_recording(parts[1])
 
 
@@ -358,7 +358,7 @@ def test_numpy_and_hdf5_files_of_arrays_read_as_matlab_files(tmp_path: Path) -> 
             assert_read(read_recording(part, arm="left", note=None), q, qd, tau)
             mine = read_recording(Path(f"{mat}:{part.name.split(':')[1]}"), arm="left", note=None)
             np.testing.assert_array_equal(read_recording(part, arm="left", note=None).q, mine.q)
-    with pytest.raises(RecordingFileError, match=r"set.npz:train: a NumPy .npz file names no arm; pass --arm"):
+    with pytest.raises(RecordingFileError, match=r"set.npz:train: a NumPy .npz file names no arm, nor does the file name; pass --arm"):
         read_recording(f"{npz}:train")
     np.savez(npz, torques=np.zeros((10, 6)))
     with pytest.raises(RecordingFileError, match=r"no recording in this NumPy .npz file \(holds torques 10×6 double\)"):

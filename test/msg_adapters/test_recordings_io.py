@@ -360,13 +360,26 @@ def test_a_table_whose_columns_name_no_arm_is_read_with_the_arm_given(tmp_path: 
     header = [p + j for p in prefixes for j in ("s0", "s1", "e0", "e1", "w0", "w1", "w2")]
     path = tmp_path / "other_dataset.csv"
     np.savetxt(path, np.hstack([q, qd, tau]), header=",".join(header), delimiter=",", comments="", fmt="%.17g")
-    with pytest.raises(RecordingFileError, match=f"the columns name no arm \\({prefixes[0]}s0 {prefixes[1]}s0 {prefixes[2]}s0 ...\\); pass --arm right\\|left"):
+    with pytest.raises(RecordingFileError, match=f"the columns name no arm \\({prefixes[0]}s0 {prefixes[1]}s0 {prefixes[2]}s0 ...\\), nor does the file name; pass --arm right\\|left"):
         read_table_recording(path)
     for side in ("right", "left"):
         rec = read_table_recording(path, arm=side, note=lambda _: None)
         assert rec.side == side and rec.joint_names == arm_joint_names(side)
         np.testing.assert_array_equal(np.hstack([rec.q, rec.qd, rec.effort]), np.hstack([q, qd, tau]))
         assert rec.rate_hz == pytest.approx(100.0, rel=1e-3)
+    # As the other unit's files are published (left_circle_p90_t105.csv): the file name names the arm.
+    for name, side in (("left_circle_p90_t105.csv", "left"), ("Right-Arm.run2.csv", "right")):
+        named = tmp_path / name
+        named.write_bytes(path.read_bytes())
+        notes: list[str] = []
+        rec = read_table_recording(named, note=notes.append)
+        assert rec.side == side and rec.joint_names == arm_joint_names(side)
+        assert f"{named}: the columns name no arm ({prefixes[0]}s0 {prefixes[1]}s0 {prefixes[2]}s0 ...); read as the {side} arm, which the file name names (--arm sets it)" in notes
+        assert read_table_recording(named, arm="right" if side == "left" else "left", note=None).side != side, "--arm sets it"
+    for name in ("left_vs_right.csv", "leftover.csv", "bereft_arm.csv"):
+        (tmp_path / name).write_bytes(path.read_bytes())
+        with pytest.raises(RecordingFileError, match="name no arm .*, nor does the file name; pass --arm"):
+            read_table_recording(tmp_path / name)
 
 
 def test_simulated_500_hz_table_without_time_or_arm_names_reads_back_at_500_hz(tmp_path: Path) -> None:

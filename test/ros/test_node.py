@@ -25,6 +25,7 @@ from hypothesis import strategies as st
 from processes import interrupt
 from repo_paths import REPO
 from recorded_bags import START_NS, joint_states
+from reference_models import dahl_state_of_steps
 
 from baxter_dynamics_ros import load_arm_model
 from baxter_dynamics_ros.core.acceleration import FirstDifference, LowPassDifferentiator
@@ -92,17 +93,28 @@ def expected_torques(
     """The core's gravity, τ and residual (N, 7) for samples the node accepted in this order.
 
     The estimator restarts at the samples whose index is in ``resets`` (and at 0). With a
-    compensation, τ and G are those of its model."""
+    compensation, τ and G are those of its model; Dahl's friction state restarts with the estimator
+    (``reference_models.dahl_state_of_steps`` of the trapezoid of q̇)."""
     est = estimator()
     qdd = np.zeros_like(qd)
+    steps = np.zeros_like(qd)  # the angle turned into each sample since the last, rad
     for k in range(len(stamps_ns)):
         if k in resets:
             est.reset()
         dt_s = 0.0 if k == 0 or k in resets else (int(stamps_ns[k]) - int(stamps_ns[k - 1])) * 1e-9
         qdd[k] = est.update(qd[k], dt_s)
-    if compensation is not None:
+        steps[k] = 0.0 if dt_s == 0.0 else 0.5 * (qd[k] + qd[k - 1]) * dt_s
+    if compensation is None:
+        tau = arm.inverse_dynamics(q, qd, qdd)
+    else:
         arm = compensation.arm
-    tau = arm.inverse_dynamics(q, qd, qdd) + (0.0 if compensation is None else compensation.torque(q, qd, qdd))
+        presliding = None
+        if compensation.presliding is not None:
+            starts = sorted({0, *resets, len(qd)})
+            presliding = np.vstack([
+                dahl_state_of_steps(steps[a:b], compensation.presliding.presliding_rad) for a, b in itertools.pairwise(starts)
+            ])  # fmt: skip
+        tau = arm.inverse_dynamics(q, qd, qdd) + compensation.torque(q, qd, qdd, presliding)
     return {"gravity": arm.gravity(q), "inverse_dynamics": tau, "residual": effort - tau}
 
 
@@ -602,6 +614,7 @@ def test_effects_file_from_the_diagnosis_is_compensated(ros_client, node_process
         "  viscous_friction: {damping_nm_s_rad: [1.0, 1.5, 0.5, 0.5, 0.1, 0.1, 0.05]}\n"
         "  payload: {mass_kg: 0.5, com_m: [0.0, 0.0, 0.05]}\n"
         "  delay: {delay_s: 0.01}\n"
+        "  dahl_friction: {friction_nm: {s1: 1.0, e0: 0.5, w0: 0.2}, presliding_rad: 0.05}\n"
     )
     process = node_processes.start(
         ["-p", f"effects_file:={effects}", "-p", "joint_states_topic:=/fx_test/joint_states", "-r", "__ns:=/fx_test"]
