@@ -113,7 +113,10 @@ class Screening:
         return f"WARNING: {label}: {self.skipped} of {len(self.keep)} samples skipped as implausible ({causes}); the recording is split into pieces at them"
 
     def refusal(self) -> RecordingError | None:
-        """The error for a recording of which more than :data:`MAX_IMPLAUSIBLE_SHARE` is implausible."""
+        """The error for a recording of fewer than 2 samples (no time series: a lone sample has no
+        q̇ to difference either), or of which more than :data:`MAX_IMPLAUSIBLE_SHARE` is implausible."""
+        if len(self.keep) < 2:
+            return RecordingError(f"holds {len(self.keep)} sample(s) of the arm: a recording is a time series of at least 2")
         if self.skipped <= MAX_IMPLAUSIBLE_SHARE * len(self.keep):
             return None
         causes = ", ".join(f"{n} {cause}" for cause, n in self.counts.items() if n)

@@ -259,7 +259,12 @@ def prepare(arm: ArmModel, rec: Recording, cutoffs_hz: Sequence[float]) -> Prepa
     delay_columns = np.gradient(tau, stamps, axis=0)
     np.negative(delay_columns, out=delay_columns)
     residual_raw = rec.effort - arm.inverse_dynamics(rec.q, rec.qd, first_difference(rec.qd, stamps))
-    dahl_states = {a: DahlFriction(friction_nm=0.0, presliding_rad=a).state(friction_qd, stamps) for a in DAHL_PRESLIDING_RAD}
+    # Dahl's state from z = 0 in each piece: across a gap the motion, and so the state, is unknown.
+    dahl_states = {a: np.zeros_like(friction_qd) for a in DAHL_PRESLIDING_RAD}
+    for lo, hi in rec.segments:
+        if hi - lo > 1:
+            for a, z in dahl_states.items():
+                z[lo:hi] = DahlFriction(friction_nm=0.0, presliding_rad=a).state(friction_qd[lo:hi], stamps[lo:hi])
     return Prepared(
         q=rec.q, qd=rec.qd, cutoffs_hz=cutoffs, qd_lowpassed=qd_lowpassed, qdd=qdd, rigid_torque=tau, residual=residual,
         residual_raw=residual_raw, delay_columns=delay_columns, stamps_s=stamps, dahl_states=dahl_states,

@@ -238,6 +238,22 @@ def test_recordings_shorter_than_the_methods_need_are_refused(sim, tmp_path: Pat
     assert listing(tmp_path) == []
 
 
+@pytest.mark.parametrize("velocity", ["[]", "[0.0, 0.1, 0.0, 0.0, 0.0, 0.0, 0.0]"])
+def test_a_dump_of_one_message_is_refused_as_one_sample(tmp_path: Path, velocity: str) -> None:
+    """`ros2 topic echo` saved after one message, with velocities or without (nothing to difference):
+    one sample is no time series, said as such (not as samples that are NaN)."""
+    names = "".join(f"- left_{j}\n" for j in ("s0", "s1", "e0", "e1", "w0", "w1", "w2"))
+    values = "".join(f"- {0.1 * k}\n" for k in range(7))
+    dump = tmp_path / "one_message.txt"
+    dump.write_text(
+        "header:\n  stamp:\n    sec: 100\n    nanosec: 0\n  frame_id: ''\n"
+        f"name:\n{names}position:\n{values}velocity: {velocity}\neffort:\n{values}---\n"
+    )
+    line = the_error(run_cli("process", dump, "--out", tmp_path / "out.csv"))
+    assert line == f"ERROR: {dump}: holds 1 sample(s) of the arm: a recording is a time series of at least 2"
+    assert listing(tmp_path) == ["one_message.txt"]
+
+
 def test_play_on_a_table_says_that_it_takes_bags(sim) -> None:
     line = the_error(run_cli("play", sim["table"]))
     assert line.startswith(f"ERROR: {sim['table']}: play takes bags (.bag, a ROS 2 bag folder, .mcap, .db3), not tables")

@@ -93,6 +93,32 @@ def test_the_delay_column_follows_uneven_stamps() -> None:
     np.testing.assert_allclose(p.delay_columns, by_stamps, rtol=1e-9, atol=1e-9 * np.abs(by_stamps).max())
 
 
+def test_dahl_state_restarts_after_a_gap() -> None:
+    """A recording with 50 samples lost in the middle (two pieces): Dahl's state of each variant is
+    the exact step over the trapezoid of each piece's own low-passed q̇ (scipy), from 0 in each, as
+    the motion across the gap is unknown (``reference_models.dahl_state_of_steps``)."""
+    from reference_models import dahl_state_of_steps
+
+    from baxter_dynamics_ros.diagnosis.statistics import DAHL_PRESLIDING_RAD
+
+    arm = validation_arm()
+    whole = recording(arm, 64, 12.0)
+    keep = np.r_[0:500, 550:len(whole)]
+    rec = Recording(whole.side, whole.joint_names, whole.stamps_ns[keep], whole.q[keep], whole.qd[keep], whole.effort[keep])
+    assert rec.segments == ((0, 500), (500, len(keep)))
+    p = prepare(arm, rec, PER_JOINT_HZ)
+    for angle in DAHL_PRESLIDING_RAD:
+        expected = []
+        for lo, hi in rec.segments:
+            piece = Recording(rec.side, rec.joint_names, rec.stamps_ns[lo:hi], rec.q[lo:hi], rec.qd[lo:hi], rec.effort[lo:hi])
+            qd = lowpassed_velocity(piece, PER_JOINT_HZ)
+            steps = np.zeros_like(qd)
+            steps[1:] = 0.5 * (qd[1:] + qd[:-1]) * np.diff(piece.stamps_s)[:, None]
+            expected.append(dahl_state_of_steps(steps, angle))
+        np.testing.assert_allclose(p.dahl_states[angle], np.vstack(expected), atol=1e-6)
+        assert np.all(p.dahl_states[angle][500] == 0.0) and np.abs(p.dahl_states[angle][499]).max() > 0.5
+
+
 def test_the_cutoff_is_chosen_on_every_training_recordings_scores_together() -> None:
     """choose_cutoff on hand-made scores ((k, 7) per recording, one row per cut-off of the grid): per
     joint the cut-off whose summed score is least — here neither recording's own best at joint 0 —
