@@ -40,6 +40,14 @@ It is read as bagpy's table, the receive times as :func:`~msg_adapters.datetimes
 them (local time taken as UTC: only where every header stamp is zero are they used, and then only
 their differences matter).
 
+``ros2 topic echo --csv /robot/joint_states > run.csv`` prints each message as one line with no
+header: every field in the message's order, arrays flattened, ``sec,nanosec,frame_id,name…,
+position…,velocity…,effort…``, an empty array as one empty field. A file whose first line reads so
+(two integers, a frame_id, then joint names and numbers) is read line by line: the header stamp as
+the time, the names the fields after frame_id that are not numbers, then the arrays, m numbers each
+or empty; a line whose velocity alone is empty is read as a message without velocities, any other
+that fits no JointState skipped and counted as above.
+
 ``rostopic echo /robot/joint_states > run.txt`` (ROS 1) and ``ros2 topic echo`` print each message
 as YAML, ``---`` after it: ``header:`` first (its ``stamp``'s ``secs``/``nsecs``, ROS 2's ``sec``/
 ``nanosec``), then ``name``, ``position``, ``velocity``, ``effort``, each a list in brackets
@@ -53,6 +61,7 @@ from __future__ import annotations
 
 import ast
 import csv
+import itertools
 import os
 import re
 from collections.abc import Callable, Collection, Iterable, Iterator
@@ -104,9 +113,12 @@ _ARRAY_FIELD = re.compile(r"_?\d+$")
 
 def is_topic_dump(path: str | os.PathLike[str]) -> bool:
     """Whether ``path`` is a file whose first line is the header of joint states dumped by ``rostopic
-    echo -p``, bagpy or rosbag_to_csv, or the first line of messages echoed (module docstring)."""
+    echo -p``, bagpy or rosbag_to_csv, the first line of messages echoed, or a message as ``ros2 topic
+    echo --csv`` prints it (module docstring)."""
     first = first_line(path, SNIFF_BYTES)
-    return first is not None and (_header_fields(first) is not None or _bagpy_fields(first) is not None or _is_echo(first))
+    return first is not None and (
+        _header_fields(first) is not None or _bagpy_fields(first) is not None or _is_echo(first) or _echo_csv_row(first) is not None
+    )
 
 
 def _is_echo(line: str) -> bool:
@@ -512,6 +524,49 @@ def _echo_rows(lines: Iterable[str]) -> tuple[_Rows, int]:
     return rows, unreadable
 
 
+def _echo_csv_row(line: str) -> tuple[int, tuple[str, ...], str] | None:
+    """(stamp ns, names, the text of its q, q̇ and effort numbers) of a line of ``ros2 topic echo
+    --csv`` (module docstring); None for a line that is none: no stamp of two integers, no name, or
+    a field after the names that is neither a number nor empty. Numbers fit no layout (and the row
+    is skipped) unless position and effort hold one per name, and velocity as many or none."""
+    fields = line.rstrip("\r\n").split(",")
+    if len(fields) < 5 or not (fields[0].isdigit() and fields[1].isdigit()):
+        return None
+    m = 0
+    while 3 + m < len(fields) and fields[3 + m] and not _is_number(fields[3 + m]):
+        m += 1
+    rest = fields[3 + m :]
+    if not m or not all(x == "" or _is_number(x) for x in rest):
+        return None
+    arrays: list[list[str]] = []
+    while rest and len(arrays) < 3:  # each array: m numbers, or one empty field
+        take = 1 if rest[0] == "" else m
+        arrays.append([x for x in rest[:take] if x])
+        rest = rest[take:]
+    try:
+        stamp_ns = _stamp_ns(fields[0], fields[1])
+    except ValueError:  # digits int() does not read, or a time int64 ns cannot hold
+        return None
+    numbers = _state_numbers(*arrays) if len(arrays) == 3 and not rest else []
+    return stamp_ns, tuple(fields[3 : 3 + m]), ",".join(numbers)
+
+
+def _echo_csv_rows(first: str, lines: Iterable[str]) -> tuple[_Rows, int]:
+    """The messages of ``ros2 topic echo --csv`` from its first line on, and how many lines are none."""
+    rows = _Rows(JOINT_STATE_LAYOUTS)
+    unreadable = 0
+    for line in itertools.chain([first], lines):
+        if not line.strip():
+            continue
+        row = _echo_csv_row(line)
+        if row is None:
+            unreadable += 1
+            continue
+        stamp_ns, names, numbers = row
+        rows.add(stamp_ns, stamp_ns, names, numbers)
+    return rows, unreadable
+
+
 def _topic_data(path: str | os.PathLike[str], note: Callable[[str], None] | None = None) -> TopicData:
     """The joint-state messages of a dump (module docstring), as a bag topic's decoded messages.
 
@@ -530,11 +585,15 @@ def _topic_data(path: str | os.PathLike[str], note: Callable[[str], None] | None
         elif _is_echo(first):
             rows, unreadable = _echo_rows(f)
             entries = "messages"
+        elif _echo_csv_row(first) is not None:
+            rows, unreadable = _echo_csv_rows(first, f)
+            entries = "lines"
         else:
             raise RecordingFileError(
                 f"{path}: not a table of rostopic echo -p joint states (its header must start {HEADER_START!r} and name {NAMES_FIELD}), "
                 f"of bagpy's (its header must start {BAGPY_TIME!r} and name {' or '.join(BAGPY_NAMES)}), of rosbag_to_csv's "
-                f"(start {ROSBAG_TO_CSV_TIME!r}, name {ROSBAG_TO_CSV_NAMES}), or messages echoed (first line {ECHO_START!r})"
+                f"(start {ROSBAG_TO_CSV_TIME!r}, name {ROSBAG_TO_CSV_NAMES}), or messages echoed (first line {ECHO_START!r}, "
+                "or with --csv sec,nanosec,frame_id,names,position,velocity,effort)"
             )
     rows.flush()
     if not rows.times_ns:

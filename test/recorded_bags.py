@@ -272,6 +272,14 @@ def savemat_v73(path: Path, variables: dict, track_order: bool = False) -> Path:
     return path
 
 
+def echo_csv_line(stamp_ns: int, names: Sequence[str], *arrays, frame_id: str = "") -> str:
+    """One JointState as ``ros2 topic echo --csv`` prints it (rosidl_runtime_py's message_to_csv:
+    every field in the message's order joined by commas, arrays flattened, str() of each value, an
+    empty array an empty field); arrays: position, velocity, effort."""
+    secs, nsecs = divmod(int(stamp_ns), 1_000_000_000)
+    return ",".join([str(secs), str(nsecs), frame_id, ",".join(names), *(",".join(str(float(v)) for v in a) for a in arrays)])
+
+
 def echo_message(stamp_ns: int, names: Sequence[str], *arrays, ros2: bool = False, frame_id: str = "") -> str:
     """One JointState as ``rostopic echo`` (ROS 1: lists in brackets, ``secs``/``nsecs``) or ``ros2
     topic echo`` (one ``- item`` per line, ``sec``/``nanosec``, NaN as YAML's ``.nan``) prints it, its

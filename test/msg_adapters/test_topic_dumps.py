@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from recorded_bags import (
-    BAXTER_JOINTS, columns, echo_message, joint_states, rostopic_plot_header, rostopic_plot_row, write_bagpy_table, write_rosbag_to_csv_table, write_rostopic_table,
+    BAXTER_JOINTS, columns, echo_csv_line, echo_message, joint_states, rostopic_plot_header, rostopic_plot_row, write_bagpy_table, write_rosbag_to_csv_table, write_rostopic_table,
 )
 from repo_paths import REPO
 
@@ -411,6 +411,61 @@ def test_echoed_messages_of_other_layouts_are_matched_by_name_and_the_rest_skipp
         f"({grippers} {SkipReason.MISSING_JOINT.value}, 2 {SkipReason.ARRAY_LENGTH.value})",
         f"WARNING: {path}: 1 of {80 + 1} samples skipped as implausible (1 NaN or inf); the recording is split into pieces at them",
     ]
+
+
+def test_messages_echoed_as_csv_read_back_exactly(tmp_path: Path) -> None:
+    """``ros2 topic echo --csv /robot/joint_states > run.csv``, no header: the arm found by name, the
+    header stamps as times, values to the last bit."""
+    states = joint_states(N)
+    path = tmp_path / "run.csv"
+    path.write_text("\n".join(echo_csv_line(int(t), BAXTER_JOINTS, *(states[f][k] for f in ("position", "velocity", "effort")))
+                              for k, t in enumerate(states["stamps_ns"])) + "\n")
+    assert is_topic_dump(path)
+    notes: list[str] = []
+    assert_arm(read_recording(path, note=notes.append), states, "right")
+    assert_arm(read_recording(path, arm="left", note=notes.append), states, "left")
+    assert notes == []
+
+
+def test_messages_echoed_as_csv_of_other_layouts_are_matched_by_name_and_the_rest_skipped_and_counted(tmp_path: Path) -> None:
+    """Names in another order, a frame_id, gripper messages, a message without efforts (an empty
+    field), a line that is no message, a NaN, Windows line ends: the arm's samples read exactly, the
+    rest counted. Without velocities in every message, q̇ is the central difference of q."""
+    states = joint_states(80)
+    order = np.arange(len(BAXTER_JOINTS))[::-1]
+    gripper = ("l_gripper_l_finger_joint", "l_gripper_r_finger_joint")
+    lines = []
+    for k, t in enumerate(states["stamps_ns"]):
+        names, arrays = BAXTER_JOINTS, [states[f][k] for f in ("position", "velocity", "effort")]
+        if k % 5 == 2:
+            names, arrays = [BAXTER_JOINTS[i] for i in order], [a[order] for a in arrays]
+        lines.append(echo_csv_line(int(t), names, *arrays, frame_id="base"))
+        if k % 9 == 4:
+            lines.append(echo_csv_line(int(t) + 1, gripper, [0.01, 0.01], [0.0, 0.0], [0.0, 0.0]))
+    last = int(states["stamps_ns"][-1])
+    no_effort = echo_csv_line(last + 5, BAXTER_JOINTS, states["position"][0], states["velocity"][0], [])
+    nan = states["position"][1].copy()
+    nan[BAXTER_JOINTS.index("right_e0")] = np.nan
+    with_nan = echo_csv_line(last + 7, BAXTER_JOINTS, nan, states["velocity"][1], states["effort"][1])
+    path = tmp_path / "echo.csv"
+    path.write_bytes("\r\n".join([*lines, no_effort, "sec,nanosec,frame_id,left_s0,0.1", with_nan]).encode())
+    notes: list[str] = []
+    assert_arm(read_recording(path, note=notes.append), states, "right")
+    grippers = sum(1 for k in range(80) if k % 9 == 4)
+    assert notes == [
+        f"WARNING: {path}: 1 of {len(lines) + 3} lines skipped: no time, header stamp and joint names could be read from them",
+        f"WARNING: {path}: {grippers + 1} of {len(lines) + 2} messages in this file skipped as malformed "
+        f"({grippers} {SkipReason.MISSING_JOINT.value}, 1 {SkipReason.ARRAY_LENGTH.value})",
+        f"WARNING: {path}: 1 of {80 + 1} samples skipped as implausible (1 NaN or inf); the recording is split into pieces at them",
+    ]
+    no_velocity = tmp_path / "no_velocity.csv"
+    no_velocity.write_text("\n".join(echo_csv_line(int(t), BAXTER_JOINTS, states["position"][k], [], states["effort"][k])
+                                     for k, t in enumerate(states["stamps_ns"])) + "\n")
+    rec = read_recording(no_velocity, note=None)
+    q, _, effort = columns(states, arm_joint_names("right"))
+    np.testing.assert_array_equal(rec.q, q)
+    np.testing.assert_array_equal(rec.effort, effort)
+    np.testing.assert_allclose(rec.qd, np.gradient(q, (states["stamps_ns"] - states["stamps_ns"][0]) * 1e-9, axis=0), rtol=1e-12, atol=1e-12)
 
 
 def test_echoed_sea_joint_states_are_read_from_their_actual_arrays(tmp_path: Path) -> None:
