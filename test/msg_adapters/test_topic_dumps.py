@@ -8,6 +8,7 @@ from __future__ import annotations
 import datetime
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -375,22 +376,30 @@ def test_echoed_messages_read_back_exactly(tmp_path: Path, ros2: bool) -> None:
     assert notes == []
 
 
+def mixed_messages(states: dict, message: Callable[..., str]) -> list[str]:
+    """The samples of ``states`` as ``message(stamp_ns, names, position, velocity, effort, frame_id=…)``
+    writes them, frame_id "base", every 5th from the 3rd with its joints in reverse order, and a
+    gripper's message after every 9th from the 5th (k % 9 == 4)."""
+    order = np.arange(len(BAXTER_JOINTS))[::-1]
+    gripper = ("l_gripper_l_finger_joint", "l_gripper_r_finger_joint")
+    out = []
+    for k, t in enumerate(states["stamps_ns"]):
+        names, arrays = BAXTER_JOINTS, [states[f][k] for f in ("position", "velocity", "effort")]
+        if k % 5 == 2:
+            names, arrays = [BAXTER_JOINTS[i] for i in order], [a[order] for a in arrays]
+        out.append(message(int(t), names, *arrays, frame_id="base"))
+        if k % 9 == 4:
+            out.append(message(int(t) + 1, gripper, [0.01, 0.01], [0.0, 0.0], [0.0, 0.0]))
+    return out
+
+
 @pytest.mark.parametrize("ros2", [False, True])
 def test_echoed_messages_of_other_layouts_are_matched_by_name_and_the_rest_skipped_and_counted(tmp_path: Path, ros2: bool) -> None:
     """Names in another order, gripper messages, a message without efforts, one without a stamp, a
     NaN (ROS 2's ``.nan``), an empty message (``---`` twice), Windows line ends, and the last message
     cut short: the arm's samples read exactly, the rest counted."""
     states = joint_states(80)
-    order = np.arange(len(BAXTER_JOINTS))[::-1]
-    gripper = ("l_gripper_l_finger_joint", "l_gripper_r_finger_joint")
-    messages = []
-    for k, t in enumerate(states["stamps_ns"]):
-        names, arrays = BAXTER_JOINTS, [states[f][k] for f in ("position", "velocity", "effort")]
-        if k % 5 == 2:
-            names, arrays = [BAXTER_JOINTS[i] for i in order], [a[order] for a in arrays]
-        messages.append(echo_message(int(t), names, *arrays, ros2=ros2, frame_id="base"))
-        if k % 9 == 4:
-            messages.append(echo_message(int(t) + 1, gripper, [0.01, 0.01], [0.0, 0.0], [0.0, 0.0], ros2=ros2))
+    messages = mixed_messages(states, lambda *a, **k: echo_message(*a, **k, ros2=ros2))
     no_effort = echo_message(int(states["stamps_ns"][-1]) + 5, BAXTER_JOINTS, states["position"][0], states["velocity"][0], [], ros2=ros2)
     no_stamp = echo_message(int(states["stamps_ns"][-1]) + 6, BAXTER_JOINTS, *(states[f][0] for f in ("position", "velocity", "effort")), ros2=ros2)
     no_stamp = no_stamp.replace("sec", "when")
@@ -432,16 +441,7 @@ def test_messages_echoed_as_csv_of_other_layouts_are_matched_by_name_and_the_res
     field), a line that is no message, a NaN, Windows line ends: the arm's samples read exactly, the
     rest counted. Without velocities in every message, q̇ is the central difference of q."""
     states = joint_states(80)
-    order = np.arange(len(BAXTER_JOINTS))[::-1]
-    gripper = ("l_gripper_l_finger_joint", "l_gripper_r_finger_joint")
-    lines = []
-    for k, t in enumerate(states["stamps_ns"]):
-        names, arrays = BAXTER_JOINTS, [states[f][k] for f in ("position", "velocity", "effort")]
-        if k % 5 == 2:
-            names, arrays = [BAXTER_JOINTS[i] for i in order], [a[order] for a in arrays]
-        lines.append(echo_csv_line(int(t), names, *arrays, frame_id="base"))
-        if k % 9 == 4:
-            lines.append(echo_csv_line(int(t) + 1, gripper, [0.01, 0.01], [0.0, 0.0], [0.0, 0.0]))
+    lines = mixed_messages(states, echo_csv_line)
     last = int(states["stamps_ns"][-1])
     no_effort = echo_csv_line(last + 5, BAXTER_JOINTS, states["position"][0], states["velocity"][0], [])
     nan = states["position"][1].copy()
